@@ -1,0 +1,104 @@
+#pragma once
+// The validated description of one run, parsed once from a TOML case file
+// (see reader.hpp). Defaults are the paper's values (MODEL.md §10), so a case
+// file lists only what differs. All units SI.
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+namespace stickslip {
+
+enum class GradDiv { paper, navier };       // G2 = (1+2ν) G1 (paper) or G1/(1−2ν) (Navier)
+enum class InitialState { rest, sliding };  // u = w = 0, or w^x = v everywhere
+enum class Method { imex };
+enum class TraceSelection { all, none, list };
+
+struct LatticeParams {
+  int nx = 15;
+  int ny = 15;
+  int nz = 10;
+  double spacing = 1e-4;  // a [m]
+};
+
+struct MaterialParams {
+  double density = 1e3;         // ρ [kg/m³]
+  double youngs_modulus = 1e7;  // E [Pa]
+  double poisson_ratio = 0.5;   // ν
+  GradDiv grad_div = GradDiv::paper;
+};
+
+struct DampingParams {
+  double bulk = 0.1;     // η̂ = η/ω0
+  double contact = 0.1;  // η̂_c = η_c/ω0
+};
+
+struct ExplicitContact {
+  int ix = 0;
+  int iy = 0;
+  double v_star = 0.0;  // [m/s]
+  int line = 0;         // where it was given in the case file, for error messages
+};
+
+struct InterfaceParams {
+  double coverage = 0.1;  // θ requested; N_c = floor(θ Nx Ny + 0.5)
+  std::uint64_t seed = 1;
+  double shear_stress = 6.5e6;  // τ_f [Pa]
+  double shape = 0.1;           // c in φ(r) = exp(−c (log10 r)²)
+  double v_m = 1e-3;            // centre of the log-uniform v* distribution [m/s]
+  double spread = 0.5;          // δ, half-width of log10 v* [decades]
+  double epsilon = 1e-2;        // ε, force scaling
+  double max_pressure = 1e6;    // P0 [Pa]
+  double slip_threshold = 1.0;  // κ: slipping while |s| > κ v*
+  // A non-empty list replaces the random placement (coverage and seed unused).
+  std::vector<ExplicitContact> contacts;
+};
+
+struct DriveParams {
+  double velocity = 1e-3;  // v [m/s]
+};
+
+struct RunParams {
+  double t_end = 5e-3;         // [s]
+  double average_from = 1e-3;  // t_avg [s]: μ averages F_f over [t_avg, t_end]
+  InitialState initial = InitialState::rest;
+};
+
+struct SolverParams {
+  Method method = Method::imex;
+  double rtol = 1e-6;
+  double atol_displacement = 1e-12;  // [m]
+  double atol_velocity = 1e-7;       // [m/s]: 1e-4 of the paper's drive speed
+  long max_steps = 50'000'000;       // over the whole run
+};
+
+struct OutputParams {
+  std::filesystem::path dir;  // empty: out/<case file stem> in the working directory
+  double interval = 1e-6;     // [s] between rows of friction.csv and traces.csv
+  TraceSelection traces = TraceSelection::none;
+  std::vector<int> trace_ids;  // when traces == list
+};
+
+struct Case {
+  std::filesystem::path source;  // the case file it was read from
+  LatticeParams lattice;
+  MaterialParams material;
+  DampingParams damping;
+  InterfaceParams interface;
+  DriveParams drive;
+  RunParams run;
+  SolverParams solver;
+  OutputParams output;
+};
+
+// The case as resolved (every parameter, defaults filled in), for summary.json.
+nlohmann::json to_json(const Case& c);
+
+const char* to_string(GradDiv);
+const char* to_string(InitialState);
+const char* to_string(Method);
+
+}  // namespace stickslip

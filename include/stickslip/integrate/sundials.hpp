@@ -1,0 +1,83 @@
+#pragma once
+// RAII ownership of SUNDIALS objects and the one exception boundary every
+// C callback goes through. Nothing here knows about the physics.
+
+#include <exception>
+#include <memory>
+#include <span>
+#include <stdexcept>
+#include <string>
+
+#include <nvector/nvector_serial.h>
+#include <sundials/sundials_context.h>
+#include <sundials/sundials_linearsolver.h>
+#include <sundials/sundials_matrix.h>
+
+namespace stickslip {
+
+// Thrown when an integrator fails; `what()` says where (time) and why.
+class IntegrationError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Throws IntegrationError naming `call` when a SUNDIALS call returns < 0.
+void check(int flag, const char* call);
+// Throws when a constructor returned NULL.
+void check_created(const void* p, const char* call);
+
+class SunContext {
+ public:
+  SunContext();
+  ~SunContext();
+  SunContext(const SunContext&) = delete;
+  SunContext& operator=(const SunContext&) = delete;
+  operator SUNContext() const { return ctx_; }
+
+ private:
+  SUNContext ctx_ = nullptr;
+};
+
+struct NVectorDeleter {
+  void operator()(N_Vector v) const { N_VDestroy(v); }
+};
+struct MatrixDeleter {
+  void operator()(SUNMatrix m) const { SUNMatDestroy(m); }
+};
+struct LinearSolverDeleter {
+  void operator()(SUNLinearSolver s) const { SUNLinSolFree(s); }
+};
+using NVectorPtr = std::unique_ptr<std::remove_pointer_t<N_Vector>, NVectorDeleter>;
+using MatrixPtr = std::unique_ptr<std::remove_pointer_t<SUNMatrix>, MatrixDeleter>;
+using LinearSolverPtr = std::unique_ptr<std::remove_pointer_t<SUNLinearSolver>, LinearSolverDeleter>;
+
+NVectorPtr make_serial_vector(std::span<const double> values, SUNContext ctx);
+
+inline std::span<double> as_span(N_Vector v) {
+  return {N_VGetArrayPointer_Serial(v), static_cast<std::size_t>(N_VGetLength_Serial(v))};
+}
+
+// The exception boundary: runs `body` inside a C callback. Returns 0 on
+// success; on a C++ exception stores it in `slot` (rethrown by the adapter
+// after the SUNDIALS call returns) and returns −1, so no exception ever
+// crosses a SUNDIALS frame. A RecoverableError asks the solver to retry with a
+// smaller step (return 1).
+class RecoverableError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+template <class Body>
+int guarded(std::exception_ptr& slot, Body&& body) noexcept {
+  try {
+    body();
+    return 0;
+  } catch (const RecoverableError&) {
+    return 1;
+  } catch (...) {
+    slot = std::current_exception();
+    return -1;
+  }
+}
+
+}  // namespace stickslip

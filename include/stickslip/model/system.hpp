@@ -1,0 +1,147 @@
+#pragma once
+// The 3D spring-block model of MODEL.md §1–8 as an ODE system y' = f(t, y).
+// It knows nothing of any integrator: it fills derivatives, Jacobian values
+// and observables from plain arrays.
+//
+// State layout (size 6N + 3, N = Nx Ny Nz nodes, node n = ix + Nx (iy + Ny iz)):
+//   y[3n + k]        displacement u_n^k          [m]
+//   y[3N + 3n + k]   velocity w_n^k              [m/s]
+//   y[6N + 0]        ∫ P_in dt   (work done by the drive)          [J]
+//   y[6N + 1]        ∫ D dt      (energy dissipated)               [J]
+//   y[6N + 2]        ∫ F_f dt    (friction impulse, for μ)         [N s]
+// The three integrals are quadratures carried with the state so they are as
+// accurate as the state itself: they feed the energy audit (§8) and μ (§7).
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "stickslip/case/case.hpp"
+#include "stickslip/model/contacts.hpp"
+#include "stickslip/model/friction_law.hpp"
+
+namespace stickslip {
+
+// A sparse matrix pattern in compressed-row form (0-based) with values. The
+// pattern is fixed when built; only values are refilled afterwards.
+struct SparseJacobian {
+  std::int64_t size = 0;
+  std::vector<std::int64_t> row_start;  // size + 1 entries
+  std::vector<std::int64_t> column;
+  std::vector<double> value;
+  // Values that do not depend on the state (the lattice), and where each
+  // contact's 2×2 block is added to them (row-major slots into `value`).
+  std::vector<double> constant_value;
+  std::vector<std::array<std::int64_t, 4>> contact_slot;
+  std::int64_t nonzeros() const { return static_cast<std::int64_t>(column.size()); }
+};
+
+// Which part of f a Jacobian belongs to: the contact forces alone (the stiff,
+// block-diagonal part treated implicitly by IMEX methods) or all of f.
+enum class JacobianPart { contacts, full };
+
+struct EnergyTerms {
+  double kinetic = 0.0;  // Σ m|w|²/2
+  double elastic = 0.0;  // U of §3
+  double drive = 0.0;    // Σ_top (k_d/2) |(v t, 0, 0) − u|²
+  double total() const { return kinetic + elastic + drive; }
+};
+
+class System {
+ public:
+  static constexpr int kQuadratures = 3;
+  enum Quadrature { work_in = 0, dissipated = 1, friction_impulse = 2 };
+
+  System(const Case& c, std::vector<Contact> contacts);
+
+  int nx() const { return nx_; }
+  int ny() const { return ny_; }
+  int nz() const { return nz_; }
+  std::int64_t num_nodes() const { return n_; }
+  std::int64_t size() const { return 6 * n_ + kQuadratures; }
+  std::int64_t node(int ix, int iy, int iz) const { return ix + nx_ * (iy + std::int64_t{ny_} * iz); }
+  std::int64_t u_index(std::int64_t node, int k) const { return 3 * node + k; }
+  std::int64_t w_index(std::int64_t node, int k) const { return 3 * n_ + 3 * node + k; }
+  std::int64_t quadrature_index(Quadrature q) const { return 6 * n_ + q; }
+
+  // "u^x of node (3, 4, 0)" for state index i, for diagnostics.
+  std::string describe_component(std::int64_t i) const;
+
+  const std::vector<Contact>& contacts() const { return contacts_; }
+  std::int64_t contact_node(std::size_t i) const { return contact_node_[i]; }
+
+  // y at t = 0: at rest, or sliding (w^x = v everywhere); quadratures zero.
+  void initial_state(InitialState initial, std::span<double> y) const;
+
+  // f = f_explicit + f_implicit. The implicit part is the contact forces (on
+  // the contacts' in-plane velocities); everything else is explicit.
+  void rhs(double t, std::span<const double> y, std::span<double> ydot) const;
+  void rhs_explicit(double t, std::span<const double> y, std::span<double> ydot) const;
+  void rhs_implicit(double t, std::span<const double> y, std::span<double> ydot) const;
+
+  // Solves the implicit stage equation of IMEX methods, z − γ f_implicit(z) = b,
+  // exactly. f_implicit touches only the contacts' in-plane velocities, each
+  // depending on its own, so every other component is z = b and each contact
+  // is a scalar equation for its speed (see the .cpp). z holds the predictor on
+  // entry (it picks among several roots) and the solution on return. Returns the number of
+  // scalar Newton iterations; throws std::runtime_error if one fails.
+  long solve_implicit_stage(double gamma, std::span<const double> b, std::span<double> z) const;
+
+  // ∂f/∂y of `part`, with every diagonal entry present (integrators form I − γJ
+  // in place). Quadrature rows are left zero: nothing depends on them.
+  SparseJacobian jacobian_pattern(JacobianPart part) const;
+  // Refills the values of a matrix built by jacobian_pattern at y: only the
+  // contact blocks depend on the state.
+  void jacobian_values(std::span<const double> y, SparseJacobian& jac) const;
+  // ∂a/∂s of contact i (2×2, row-major, a = F/m, s its in-plane velocity).
+  std::array<double, 4> contact_block(std::size_t i, std::span<const double> y) const;
+
+  // Observables.
+  double friction_force(double t, std::span<const double> y) const;  // F_f of §5 [N]
+  double normal_force() const { return normal_force_; }               // F_N of §7 [N]
+  double coverage() const;                                            // θ realized
+  EnergyTerms energy(double t, std::span<const double> y) const;
+  double power_in(double t, std::span<const double> y) const;
+  double dissipation(std::span<const double> y) const;
+  // Relative energy-audit residual [ΔE − ∫(P_in − D)] / ∫ P_in (§8), from y(t)
+  // and the state it started from.
+  double energy_residual(double t, std::span<const double> y, std::span<const double> y0) const;
+  std::array<double, 2> contact_velocity(std::size_t i, std::span<const double> y) const;
+
+  // Exact μ of steady sliding at the drive velocity (§7).
+  double steady_sliding_mu() const;
+
+  // Derived constants, per unit mass where they enter the equations of motion.
+  double mass() const { return mass_; }
+  double g1() const { return g1_; }
+  double g2() const { return g2_; }
+  double spacing() const { return a_; }
+  double drive_velocity() const { return v_; }
+
+ private:
+  void add_lattice_accelerations(double t, std::span<const double> y, std::span<double> ydot) const;
+  void add_contact_accelerations(std::span<const double> y, std::span<double> ydot) const;
+  double lattice_dissipation(std::span<const double> y) const;
+  double contact_dissipation(std::span<const double> y) const;
+
+  int nx_, ny_, nz_;
+  std::int64_t n_;
+  double a_, mass_, g1_, g2_;
+  double k1_over_m_, k2_over_m_, kd_over_m_;  // [1/s²]
+  double eta_, eta_c_;                        // [1/s]
+  double v_;                                  // drive velocity [m/s]
+  double contact_force_scale_;                // ε f0 / m [m/s²]
+  double normal_force_;
+  double mu_prefactor_;                       // τ_f / P0
+  FrictionLaw law_;
+  std::vector<Contact> contacts_;
+  std::vector<std::int64_t> contact_node_;
+  std::vector<int> x_next_, y_next_;  // periodic neighbour along +x, +y
+  // Scratch for solve_implicit_stage, so it allocates nothing: a System is
+  // driven by one integrator at a time.
+  mutable std::vector<double> predicted_speed_;
+};
+
+}  // namespace stickslip

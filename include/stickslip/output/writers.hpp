@@ -1,0 +1,49 @@
+#pragma once
+// Output files of a run. CSV rows are formatted with snprintf into a buffered
+// stream; summary.json is written atomically (temporary file, then rename) so
+// a reader never sees half of it.
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <initializer_list>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace stickslip {
+
+// An output directory that cannot be used (results would be overwritten, or
+// it cannot be created); the command line exits with code 2 on it.
+class OutputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// The files a run writes; a directory holding any of them holds results.
+inline constexpr const char* kOutputFiles[] = {"summary.json", "friction.csv", "contacts.csv",
+                                               "traces.csv"};
+
+// Creates `dir` if needed. Refuses (OutputError) when it already holds results
+// and `overwrite` is false; with `overwrite`, removes only those result files.
+void prepare_output_dir(const std::filesystem::path& dir, bool overwrite);
+
+class CsvWriter {
+ public:
+  CsvWriter(const std::filesystem::path& file, const std::vector<std::string>& header);
+  // One row: values printed with 10 significant digits (times with 12).
+  void row(double t, std::span<const double> values);
+  void flush() { out_.flush(); }
+
+ private:
+  std::ofstream out_;
+  std::filesystem::path file_;
+  char buffer_[32];
+};
+
+void write_json_atomically(const std::filesystem::path& file, const nlohmann::json& value);
+
+}  // namespace stickslip

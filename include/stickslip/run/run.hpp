@@ -1,0 +1,34 @@
+#pragma once
+// One run of a case: builds the System, integrates it, and streams the
+// observables to the output directory (the Monitor of STYLE.md).
+
+#include <filesystem>
+
+#include "stickslip/case/case.hpp"
+#include "stickslip/integrate/arkode_integrator.hpp"
+
+namespace stickslip {
+
+struct RunOptions {
+  std::filesystem::path out_dir;
+  bool overwrite = false;
+  bool quiet = false;  // no progress on stderr
+};
+
+struct RunResult {
+  double mu = 0.0;
+  double theta = 0.0;
+  double normal_force = 0.0;
+  double energy_residual = 0.0;
+  double wall_seconds = 0.0;
+  std::size_t contacts = 0;
+  SolverStats stats;
+};
+
+// The output directory of a case: --out if given, else [output] dir, else
+// out/<case file stem> in the working directory.
+std::filesystem::path output_dir_for(const Case& c, const std::filesystem::path& out_flag);
+
+RunResult run_case(const Case& c, const RunOptions& options);
+
+}  // namespace stickslip

@@ -1,0 +1,66 @@
+#!/usr/bin/python3
+"""Velocity traces of the traced contacts, one panel per contact (the paper's Fig. 10).
+
+Usage: /usr/bin/python3 plots/traces.py OUTDIR   -> OUTDIR/traces.png
+"""
+import csv
+import json
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def main() -> int:
+    if len(sys.argv) != 2:
+        print(__doc__.strip(), file=sys.stderr)
+        return 2
+    out = Path(sys.argv[1])
+    traces = out / "traces.csv"
+    if not traces.is_file():
+        print(f"error: {traces}: no traces (set [output] traces in the case)", file=sys.stderr)
+        return 2
+    with traces.open() as f:
+        reader = csv.reader(f)
+        header = next(reader)
+        columns = list(zip(*[[float(x) for x in row] for row in reader]))
+    t_ms = [t * 1e3 for t in columns[0]]
+    ids = [name[3:] for name in header if name.startswith("vx_")]
+    v_star = {}
+    contacts = out / "contacts.csv"
+    if contacts.is_file():
+        with contacts.open() as f:
+            for row in csv.DictReader(f):
+                v_star[row["id"]] = float(row["v_star"])
+    summary = {}
+    if (out / "summary.json").is_file():
+        summary = json.loads((out / "summary.json").read_text())
+    drive = summary.get("case", {}).get("drive", {}).get("velocity")
+
+    fig, axes = plt.subplots(len(ids), 1, figsize=(8, 2.2 * len(ids) + 0.6), sharex=True, squeeze=False)
+    for ax, cid in zip(axes[:, 0], ids):
+        vx = columns[header.index(f"vx_{cid}")]
+        ax.plot(t_ms, vx, lw=0.8, color="C0")
+        label = f"contact {cid}"
+        if cid in v_star:
+            label += f", v* = {v_star[cid]:.3g} m/s"
+            ax.axhline(v_star[cid], color="C3", lw=0.6, ls="--", label="v*")
+        if drive is not None:
+            ax.axhline(drive, color="0.5", lw=0.6, ls=":", label="drive v")
+        ax.set_ylabel("$v_x$ (m/s)")
+        ax.set_title(label, fontsize=9, loc="left")
+        ax.legend(fontsize=7, loc="upper right")
+    axes[-1, 0].set_xlabel("time (ms)")
+    if summary:
+        fig.suptitle(f"μ = {summary['mu']:.4f}, θ = {summary['theta']:.4g}", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(out / "traces.png", dpi=120)
+    print(f"wrote {out / 'traces.png'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

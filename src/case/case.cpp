@@ -1,0 +1,85 @@
+#include "stickslip/case/case.hpp"
+
+#include <nlohmann/json.hpp>
+
+namespace stickslip {
+
+const char* to_string(GradDiv g) {
+  switch (g) {
+    case GradDiv::paper:
+      return "paper";
+    case GradDiv::navier:
+      return "navier";
+  }
+  return "?";
+}
+
+const char* to_string(InitialState s) {
+  switch (s) {
+    case InitialState::rest:
+      return "rest";
+    case InitialState::sliding:
+      return "sliding";
+  }
+  return "?";
+}
+
+const char* to_string(Method m) {
+  switch (m) {
+    case Method::imex:
+      return "imex";
+  }
+  return "?";
+}
+
+// Same sections and key names as the case file, so a summary.json can be read
+// back as a case (apart from `source`).
+nlohmann::json to_json(const Case& c) {
+  using nlohmann::json;
+  json contacts = json::array();
+  for (const auto& k : c.interface.contacts)
+    contacts.push_back({{"site", json::array({k.ix, k.iy})}, {"v_star", k.v_star}});
+  json traces = c.output.traces == TraceSelection::all    ? json("all")
+                : c.output.traces == TraceSelection::none ? json("none")
+                                                          : json(c.output.trace_ids);
+  const auto& l = c.lattice;
+  const auto& m = c.material;
+  const auto& i = c.interface;
+  const auto& s = c.solver;
+  return {
+      {"source", c.source.string()},
+      {"lattice", {{"nx", l.nx}, {"ny", l.ny}, {"nz", l.nz}, {"spacing", l.spacing}}},
+      {"material",
+       {{"density", m.density},
+        {"youngs_modulus", m.youngs_modulus},
+        {"poisson_ratio", m.poisson_ratio},
+        {"grad_div", to_string(m.grad_div)}}},
+      {"damping", {{"bulk", c.damping.bulk}, {"contact", c.damping.contact}}},
+      {"interface",
+       {{"coverage", i.coverage},
+        {"seed", i.seed},
+        {"shear_stress", i.shear_stress},
+        {"shape", i.shape},
+        {"v_m", i.v_m},
+        {"spread", i.spread},
+        {"epsilon", i.epsilon},
+        {"max_pressure", i.max_pressure},
+        {"slip_threshold", i.slip_threshold},
+        {"contacts", contacts}}},
+      {"drive", {{"velocity", c.drive.velocity}}},
+      {"run",
+       {{"t_end", c.run.t_end},
+        {"average_from", c.run.average_from},
+        {"initial", to_string(c.run.initial)}}},
+      {"solver",
+       {{"method", to_string(s.method)},
+        {"rtol", s.rtol},
+        {"atol_displacement", s.atol_displacement},
+        {"atol_velocity", s.atol_velocity},
+        {"max_steps", s.max_steps}}},
+      {"output",
+       {{"dir", c.output.dir.string()}, {"interval", c.output.interval}, {"traces", traces}}},
+  };
+}
+
+}  // namespace stickslip

@@ -1,0 +1,508 @@
+// Case-file reader. Every key is one entry of the schema below (section, key,
+// help, and how to read it); the reader walks the parsed TOML against that
+// table, so adding a parameter is adding one entry. Checks that involve two keys
+// run afterwards on the filled Case. Errors are blamed on the node at fault:
+// toml++ records where each node came from, and nodes parsed from --set carry
+// the source name "--set", so an override is reported as such and not as a line
+// of the file.
+
+#include "stickslip/case/reader.hpp"
+
+#include <toml++/toml.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <sstream>
+#include <utility>
+
+namespace stickslip {
+namespace {
+
+using namespace std::string_literals;
+
+constexpr std::string_view kOverride = "--set";
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// The fewest %g digits that read back as x: 0.0005, 1e-12, 0.1 (not 0.10000000000000001).
+std::string fmt(double x) {
+  char buf[32];
+  for (int digits = 1;; ++digits)
+    if (std::snprintf(buf, sizeof buf, "%.*g", digits, x);
+        digits >= 17 || std::strtod(buf, nullptr) == x)
+      return buf;
+}
+
+// User text goes into one-line messages, so control characters are escaped.
+std::string printable(std::string_view s) {
+  std::string out;
+  for (unsigned char ch : s) {
+    if (ch >= 0x20 && ch != 0x7f) {
+      out += static_cast<char>(ch);
+      continue;
+    }
+    char hex[5];
+    std::snprintf(hex, sizeof hex, "\\x%02x", ch);
+    out += hex;
+  }
+  return out;
+}
+
+std::string type_name(const toml::node& n) {
+  std::ostringstream name;  // toml++'s spelling: integer, floating-point, string, array, ...
+  name << n.type();
+  return name.str();
+}
+
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  std::iota(row.begin(), row.end(), std::size_t{0});
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diag = std::exchange(row[0], i);
+    for (std::size_t j = 1; j <= b.size(); ++j)
+      diag = std::exchange(row[j],
+                           std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] != b[j - 1])}));
+  }
+  return row.back();
+}
+
+// The nearest valid name when it is close enough to be a typo, else the list of valid names.
+std::string suggest(std::string_view name, const std::vector<std::string_view>& valid) {
+  auto dist = [&](std::string_view v) { return edit_distance(name, v); };
+  auto best = std::min_element(valid.begin(), valid.end(),
+                               [&](auto a, auto b) { return dist(a) < dist(b); });
+  if (best != valid.end() && dist(*best) <= std::max<std::size_t>(1, name.size() / 3))
+    return " (did you mean '"s + std::string(*best) + "'?)";
+  std::string all;
+  for (auto v : valid) all += (all.empty() ? "" : ", ") + std::string(v);
+  return " (valid: " + all + ")";
+}
+
+bool from_override(const toml::node& n) {
+  return n.source().path && *n.source().path == kOverride;
+}
+
+// The state of one parse: the source name for messages, and the nodes that the
+// cross-key checks need to blame.
+struct Reader {
+  std::string source;
+  std::map<std::string, const toml::node*, std::less<>> given;  // "section.key" -> its value
+  std::vector<const toml::node*> contact_sites, trace_ids;      // parallel to the Case's lists
+
+  [[noreturn]] void fail(const toml::node& at, std::string_view key, std::string_view what) const {
+    const auto& src = at.source();
+    if (from_override(at)) throw CaseError("--set "s.append(key) + ": " + std::string(what));
+    std::string where = src.begin.line ? source + ":" + std::to_string(src.begin.line) : source;
+    throw CaseError(where + ": " + std::string(key) + ": " + std::string(what));
+  }
+
+  // A cross-key problem is blamed on the first key of `choices` the user gave,
+  // worded for that key. One always is: the defaults are consistent.
+  [[noreturn]] void fail_first(
+      std::initializer_list<std::pair<std::string_view, std::string>> choices) const {
+    for (const auto& [key, what] : choices)
+      if (auto it = given.find(key); it != given.end()) fail(*it->second, key, what);
+    throw std::logic_error("stickslip: inconsistent default parameters");
+  }
+
+  double real(const toml::node& n, std::string_view key) const {
+    if (!n.is_number()) fail(n, key, "expected a number, got " + type_name(n));
+    double x = n.is_integer() ? static_cast<double>(**n.as_integer()) : **n.as_floating_point();
+    if (!std::isfinite(x)) fail(n, key, "must be finite, got " + fmt(x));
+    return x;
+  }
+
+  std::int64_t integer(const toml::node& n, std::string_view key) const {
+    if (auto* i = n.as_integer()) return i->get();
+    fail(n, key, "expected an integer, got " + type_name(n));
+  }
+
+  int index(const toml::node& n, std::string_view key) const {  // a site coordinate or contact id
+    std::int64_t i = integer(n, key);
+    if (i < 0) fail(n, key, "must be >= 0, got " + std::to_string(i));
+    if (i > std::numeric_limits<int>::max())
+      fail(n, key, "must be <= 2147483647, got " + std::to_string(i));
+    return static_cast<int>(i);
+  }
+
+  const std::string& string(const toml::node& n, std::string_view key) const {
+    if (auto* s = n.as_string()) return s->get();
+    fail(n, key, "expected a string, got " + type_name(n));
+  }
+};
+
+// An interval of allowed values; an infinite upper end means unbounded.
+struct Range {
+  double lo, hi;
+  bool lo_open, hi_open;
+  bool contains(double x) const {
+    return (lo_open ? x > lo : x >= lo) && (hi_open ? x < hi : x <= hi);
+  }
+  std::string text() const {
+    if (std::isinf(hi)) return (lo_open ? "> " : ">= ") + fmt(lo);
+    return "in "s + (lo_open ? '(' : '[') + fmt(lo) + ", " + fmt(hi) + (hi_open ? ')' : ']');
+  }
+};
+constexpr Range kPositive{0, kInf, true, true};
+constexpr Range kNonNegative{0, kInf, false, true};
+
+// Converts one value, checks what can be checked on it alone, and stores it.
+using Apply = std::function<void(Reader&, const toml::node&, const std::string& key, Case&)>;
+
+struct Entry {
+  std::string_view section, key;
+  std::string_view help;
+  Apply apply;
+};
+
+// Builders for the common kinds of entry; `s` and `m` reach the parameter: (c.*s).*m.
+template <class S>
+Apply real(S Case::*s, double S::*m, Range range) {
+  return [=](Reader& r, const toml::node& n, const std::string& key, Case& c) {
+    double x = r.real(n, key);
+    if (!range.contains(x)) r.fail(n, key, "must be " + range.text() + ", got " + fmt(x));
+    (c.*s).*m = x;
+  };
+}
+
+template <class S, class T>
+Apply integer(S Case::*s, T S::*m, std::int64_t lo) {
+  return [=](Reader& r, const toml::node& n, const std::string& key, Case& c) {
+    std::int64_t x = r.integer(n, key);
+    if (x < lo) r.fail(n, key, "must be >= " + std::to_string(lo) + ", got " + std::to_string(x));
+    if (std::cmp_greater(x, std::numeric_limits<T>::max()))
+      r.fail(n, key,
+             "must be <= " + std::to_string(std::numeric_limits<T>::max()) + ", got " +
+                 std::to_string(x));
+    (c.*s).*m = static_cast<T>(x);
+  };
+}
+
+// A string naming one of `options`, spelled as to_string spells them.
+template <class S, class E, class... Es>
+Apply choice(S Case::*s, E S::*m, Es... options) {
+  return [=](Reader& r, const toml::node& n, const std::string& key, Case& c) {
+    const std::string& word = r.string(n, key);
+    if (((word == to_string(options) && ((c.*s).*m = options, true)) || ...)) return;
+    std::string names;
+    ((names += (names.empty() ? "\""s : ", \""s) + to_string(options) + "\""), ...);
+    r.fail(n, key, "must be one of " + names + ", got \"" + printable(word) + "\"");
+  };
+}
+
+void read_dir(Reader& r, const toml::node& n, const std::string& key, Case& c) {
+  const std::string& s = r.string(n, key);
+  if (s.empty()) r.fail(n, key, "must not be empty (leave it out for out/<case name>)");
+  c.output.dir = s;  // resolved against the case file's directory once all is read
+}
+
+void read_contacts(Reader& r, const toml::node& n, const std::string& key, Case& c) {
+  const auto* list = n.as_array();
+  if (!list)
+    r.fail(n, key, "expected an array of {site = [ix, iy], v_star = ...}, got " + type_name(n));
+  if (list->empty())
+    r.fail(n, key, "must list at least one contact (leave it out for random placement)");
+  auto& contacts = c.interface.contacts;
+  contacts.clear();
+  r.contact_sites.clear();
+  for (std::size_t i = 0; i < list->size(); ++i) {
+    const toml::node& entry = *list->get(i);
+    const std::string name = key + "[" + std::to_string(i) + "]";
+    const auto* table = entry.as_table();
+    if (!table)
+      r.fail(entry, name,
+             "expected a table {site = [ix, iy], v_star = ...}, got " + type_name(entry));
+    for (auto&& [k, v] : *table)
+      if (k != "site" && k != "v_star")
+        r.fail(v, name + "." + printable(k.str()),
+               "unknown key '" + printable(k.str()) + "'" + suggest(k.str(), {"site", "v_star"}));
+    const toml::node* site = table->get("site");
+    const toml::node* v_star = table->get("v_star");
+    if (!site) r.fail(entry, name, "missing site = [ix, iy]");
+    if (!v_star) r.fail(entry, name, "missing v_star");
+    const auto* xy = site->as_array();
+    if (!xy || xy->size() != 2)
+      r.fail(*site, name + ".site", "expected an array of two integers [ix, iy]");
+    ExplicitContact contact{.ix = r.index(*xy->get(0), name + ".site"),
+                            .iy = r.index(*xy->get(1), name + ".site"),
+                            .v_star = r.real(*v_star, name + ".v_star"),
+                            .line = from_override(entry) ? 0 : int(entry.source().begin.line)};
+    if (!(contact.v_star > 0))
+      r.fail(*v_star, name + ".v_star", "must be > 0, got " + fmt(contact.v_star));
+    for (std::size_t j = 0; j < i; ++j)
+      if (contacts[j].ix == contact.ix && contacts[j].iy == contact.iy)
+        r.fail(*site, name + ".site",
+               "site [" + std::to_string(contact.ix) + ", " + std::to_string(contact.iy) +
+                   "] repeats " + key + "[" + std::to_string(j) + "]" +
+                   (contacts[j].line ? " (line " + std::to_string(contacts[j].line) + ")" : ""));
+    contacts.push_back(contact);
+    r.contact_sites.push_back(site);
+  }
+}
+
+void read_traces(Reader& r, const toml::node& n, const std::string& key, Case& c) {
+  auto& out = c.output;
+  out.trace_ids.clear();
+  r.trace_ids.clear();
+  if (auto* s = n.as_string(); s && (s->get() == "all" || s->get() == "none")) {
+    out.traces = s->get() == "all" ? TraceSelection::all : TraceSelection::none;
+    return;
+  }
+  const auto* ids = n.as_array();
+  if (!ids) {
+    std::string got = n.is_string() ? "\"" + printable(n.as_string()->get()) + "\"" : type_name(n);
+    r.fail(n, key, "must be \"all\", \"none\" or an array of contact ids, got " + got);
+  }
+  out.traces = TraceSelection::list;
+  for (std::size_t i = 0; i < ids->size(); ++i) {
+    const std::string name = key + "[" + std::to_string(i) + "]";
+    int id = r.index(*ids->get(i), name);
+    if (auto it = std::find(out.trace_ids.begin(), out.trace_ids.end(), id);
+        it != out.trace_ids.end())
+      r.fail(*ids->get(i), name,
+             "contact " + std::to_string(id) + " repeats " + key + "[" +
+                 std::to_string(it - out.trace_ids.begin()) + "]");
+    out.trace_ids.push_back(id);
+    r.trace_ids.push_back(ids->get(i));
+  }
+}
+
+const std::vector<Entry>& schema() {
+  static const std::vector<Entry> entries = {
+      {"lattice", "nx", "sites along x", integer(&Case::lattice, &LatticeParams::nx, 1)},
+      {"lattice", "ny", "sites along y", integer(&Case::lattice, &LatticeParams::ny, 1)},
+      {"lattice", "nz", "layers, interface included",
+       integer(&Case::lattice, &LatticeParams::nz, 2)},
+      {"lattice", "spacing", "a [m]", real(&Case::lattice, &LatticeParams::spacing, kPositive)},
+      {"material", "density", "ρ [kg/m³]",
+       real(&Case::material, &MaterialParams::density, kPositive)},
+      {"material", "youngs_modulus", "E [Pa]",
+       real(&Case::material, &MaterialParams::youngs_modulus, kPositive)},
+      {"material", "poisson_ratio", "ν",
+       real(&Case::material, &MaterialParams::poisson_ratio, Range{-1, 0.5, true, false})},
+      {"material", "grad_div", "G2 = (1+2ν) G1 (paper) or G1/(1−2ν) (navier)",
+       choice(&Case::material, &MaterialParams::grad_div, GradDiv::paper, GradDiv::navier)},
+      {"damping", "bulk", "η/ω0", real(&Case::damping, &DampingParams::bulk, kNonNegative)},
+      {"damping", "contact", "η_c/ω0", real(&Case::damping, &DampingParams::contact, kNonNegative)},
+      {"interface", "coverage", "θ, fraction of interface sites in contact",
+       real(&Case::interface, &InterfaceParams::coverage, Range{0, 1, true, false})},
+      {"interface", "seed", "placement and v* draws",
+       integer(&Case::interface, &InterfaceParams::seed, 0)},
+      {"interface", "shear_stress", "τ_f [Pa]",
+       real(&Case::interface, &InterfaceParams::shear_stress, kPositive)},
+      {"interface", "shape", "c in φ(r) = exp(−c (log10 r)²)",
+       real(&Case::interface, &InterfaceParams::shape, kPositive)},
+      {"interface", "v_m", "centre of the v* distribution [m/s]",
+       real(&Case::interface, &InterfaceParams::v_m, kPositive)},
+      {"interface", "spread", "δ, half-width of log10 v* [decades]",
+       real(&Case::interface, &InterfaceParams::spread, kNonNegative)},
+      {"interface", "epsilon", "ε, force scaling",
+       real(&Case::interface, &InterfaceParams::epsilon, kPositive)},
+      {"interface", "max_pressure", "P0 [Pa]",
+       real(&Case::interface, &InterfaceParams::max_pressure, kPositive)},
+      {"interface", "slip_threshold", "κ: slipping while |s| > κ v*",
+       real(&Case::interface, &InterfaceParams::slip_threshold, kPositive)},
+      {"interface", "contacts", "[{site = [ix, iy], v_star = ...}], replaces random placement",
+       read_contacts},
+      {"drive", "velocity", "v [m/s]", real(&Case::drive, &DriveParams::velocity, kNonNegative)},
+      {"run", "t_end", "[s]", real(&Case::run, &RunParams::t_end, kPositive)},
+      {"run", "average_from", "start of the friction average [s]",
+       real(&Case::run, &RunParams::average_from, kNonNegative)},
+      {"run", "initial", "rest or sliding",
+       choice(&Case::run, &RunParams::initial, InitialState::rest, InitialState::sliding)},
+      {"solver", "method", "time integrator",
+       choice(&Case::solver, &SolverParams::method, Method::imex)},
+      {"solver", "rtol", "relative tolerance", real(&Case::solver, &SolverParams::rtol, kPositive)},
+      {"solver", "atol_displacement", "[m]",
+       real(&Case::solver, &SolverParams::atol_displacement, kPositive)},
+      {"solver", "atol_velocity", "[m/s]",
+       real(&Case::solver, &SolverParams::atol_velocity, kPositive)},
+      {"solver", "max_steps", "over the whole run",
+       integer(&Case::solver, &SolverParams::max_steps, 1)},
+      {"output", "dir", "relative to the case file", read_dir},
+      {"output", "interval", "[s] between output rows",
+       real(&Case::output, &OutputParams::interval, kPositive)},
+      {"output", "traces", "\"all\", \"none\" or [contact ids]", read_traces},
+  };
+  return entries;
+}
+
+std::vector<std::string_view> sections() {
+  std::vector<std::string_view> out;
+  for (const auto& e : schema())
+    if (std::find(out.begin(), out.end(), e.section) == out.end()) out.push_back(e.section);
+  return out;
+}
+
+std::vector<std::string_view> keys_of(std::string_view section) {
+  std::vector<std::string_view> out;
+  for (const auto& e : schema())
+    if (e.section == section) out.push_back(e.key);
+  return out;
+}
+
+const Entry* find_entry(std::string_view section, std::string_view key) {
+  for (const auto& e : schema())
+    if (e.section == section && e.key == key) return &e;
+  return nullptr;
+}
+
+std::string unknown_section(std::string_view name) {
+  return "unknown section '" + printable(name) + "'" + suggest(name, sections());
+}
+
+std::string unknown_key(std::string_view section, std::string_view key) {
+  return "unknown key '" + printable(key) + "'" + suggest(key, keys_of(section));
+}
+
+std::string trim(std::string_view s) {
+  auto b = s.find_first_not_of(" \t"), e = s.find_last_not_of(" \t");
+  return b == std::string_view::npos ? "" : std::string(s.substr(b, e - b + 1));
+}
+
+// Puts one "section.key=value" into the parsed file, replacing what was there.
+void apply_override(toml::table& root, std::string_view text) {
+  auto eq = text.find('=');
+  std::string key = trim(text.substr(0, eq));
+  auto dot = key.find('.');
+  if (eq == std::string_view::npos || dot == std::string::npos || dot == 0 || dot + 1 == key.size())
+    throw CaseError("--set " + printable(text) + ": expected section.key=value");
+  std::string section = key.substr(0, dot), name = key.substr(dot + 1);
+  key = printable(key);
+  if (keys_of(section).empty()) throw CaseError("--set " + key + ": " + unknown_section(section));
+  if (!find_entry(section, name))
+    throw CaseError("--set " + key + ": " + unknown_key(section, name));
+
+  std::string value = trim(text.substr(eq + 1));
+  toml::table parsed;
+  try {
+    parsed = toml::parse("v = " + value, kOverride);
+  } catch (const toml::parse_error& e) {
+    // A bare word (navier, all) is taken as a string so the shell needs no quotes around quotes.
+    bool word = !value.empty() && std::isalpha(static_cast<unsigned char>(value[0])) &&
+                std::all_of(value.begin(), value.end(), [](unsigned char ch) {
+                  return std::isalnum(ch) || ch == '_' || ch == '-';
+                });
+    if (!word)
+      throw CaseError("--set " + key + ": malformed TOML value '" + printable(value) +
+                      "': " + printable(e.description()));
+    parsed = toml::parse("v = \"" + value + "\"", kOverride);
+  }
+  toml::node* sec = root.get(section);
+  if (!sec) sec = &root.insert(section, toml::table{}).first->second;
+  // A section that is not a table is the file's own error, reported by the reader.
+  if (auto* table = sec->as_table()) table->insert_or_assign(name, std::move(*parsed.get("v")));
+}
+
+void read_tables(Reader& r, const toml::table& root, Case& c) {
+  for (auto&& [section_key, section] : root) {
+    const std::string name = printable(section_key.str());
+    if (keys_of(section_key.str()).empty())
+      r.fail(section, name, unknown_section(section_key.str()));
+    const auto* table = section.as_table();
+    if (!table) r.fail(section, name, "expected a table [" + name + "], got " + type_name(section));
+    for (auto&& [k, v] : *table) {
+      const std::string key = name + "." + printable(k.str());
+      const Entry* entry = find_entry(section_key.str(), k.str());
+      if (!entry) r.fail(v, key, unknown_key(section_key.str(), k.str()));
+      entry->apply(r, v, key, c);
+      r.given[key] = &v;
+    }
+  }
+}
+
+long long contact_count(const Case& c) {
+  if (!c.interface.contacts.empty()) return static_cast<long long>(c.interface.contacts.size());
+  return static_cast<long long>(
+      std::floor(c.interface.coverage * c.lattice.nx * double(c.lattice.ny) + 0.5));
+}
+
+void check_consistency(const Reader& r, const Case& c) {
+  const double nu = c.material.poisson_ratio;
+  if (c.material.grad_div == GradDiv::navier && !(nu < 0.5))
+    r.fail_first(
+        {{"material.poisson_ratio",
+          "must be < 0.5 with grad_div = \"navier\" (G1/(1-2ν) diverges), got " + fmt(nu)},
+         {"material.grad_div",
+          "\"navier\" needs poisson_ratio < 0.5 (G1/(1-2ν) diverges), but poisson_ratio is " +
+              fmt(nu)}});
+
+  const int nx = c.lattice.nx, ny = c.lattice.ny;
+  const std::string lattice = std::to_string(nx) + "x" + std::to_string(ny);
+  if (c.interface.contacts.empty() && contact_count(c) < 1) {
+    const std::string none = "a " + lattice + " interface at coverage " +
+                             fmt(c.interface.coverage) +
+                             " has no contact (floor(coverage*nx*ny + 0.5) = 0)";
+    r.fail_first({{"interface.coverage", none}, {"lattice.nx", none}, {"lattice.ny", none}});
+  }
+
+  const double t_end = c.run.t_end, t_avg = c.run.average_from;
+  if (!(t_avg < t_end))
+    r.fail_first(
+        {{"run.average_from", "must be in [0, run.t_end = " + fmt(t_end) + "), got " + fmt(t_avg)},
+         {"run.t_end", "must be > run.average_from = " + fmt(t_avg) + ", got " + fmt(t_end)}});
+
+  for (std::size_t i = 0; i < c.interface.contacts.size(); ++i) {
+    const auto& k = c.interface.contacts[i];
+    if (k.ix >= nx || k.iy >= ny)
+      r.fail(*r.contact_sites[i], "interface.contacts[" + std::to_string(i) + "].site",
+             "must lie on the " + lattice + " interface (ix < " + std::to_string(nx) + ", iy < " +
+                 std::to_string(ny) + "), got [" + std::to_string(k.ix) + ", " +
+                 std::to_string(k.iy) + "]");
+  }
+
+  const long long n = contact_count(c);
+  for (std::size_t i = 0; i < c.output.trace_ids.size(); ++i)
+    if (c.output.trace_ids[i] >= n)
+      r.fail(*r.trace_ids[i], "output.traces[" + std::to_string(i) + "]",
+             "must be a contact id in [0, " + std::to_string(n) + "), got " +
+                 std::to_string(c.output.trace_ids[i]));
+}
+
+}  // namespace
+
+Case parse_case(std::string_view toml_text, const std::filesystem::path& source,
+                const std::vector<std::string>& overrides) {
+  Reader r{printable(source.string()), {}, {}, {}};
+  toml::table root;
+  try {
+    root = toml::parse(toml_text, std::string_view(source.native()));
+  } catch (const toml::parse_error& e) {
+    throw CaseError(r.source + ":" + std::to_string(e.source().begin.line) +
+                    ": malformed TOML: " + printable(e.description()));
+  }
+  for (const auto& o : overrides) apply_override(root, o);
+
+  Case c;
+  c.source = source;
+  read_tables(r, root, c);
+  check_consistency(r, c);
+  if (!c.output.dir.empty() && c.output.dir.is_relative())
+    c.output.dir = source.parent_path() / c.output.dir;
+  return c;
+}
+
+Case read_case(const std::filesystem::path& file, const std::vector<std::string>& overrides) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(file, ec))
+    throw CaseError(printable(file.string()) + ": cannot read case file: it is a directory");
+  std::ifstream in(file, std::ios::binary);
+  if (!in)
+    throw CaseError(printable(file.string()) + ": cannot read case file: " + std::strerror(errno));
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw CaseError(printable(file.string()) + ": cannot read case file: read error");
+  return parse_case(text.str(), file, overrides);
+}
+
+}  // namespace stickslip

@@ -1,0 +1,456 @@
+#include "stickslip/model/system.hpp"
+
+#include <Eigen/SparseCore>
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace stickslip {
+namespace {
+
+// The eight corners of a cell, as offsets (dx, dy, dz) ∈ {0,1}³, and the sign
+// with which each corner's displacement enters D_c along each axis: +1 for the
+// "hi" end of an edge, −1 for the "lo" end (MODEL.md §3).
+struct Corner {
+  int dx, dy, dz;
+  double sx, sy, sz;
+};
+constexpr std::array<Corner, 8> kCorners = {{
+    {0, 0, 0, -1, -1, -1},
+    {1, 0, 0, +1, -1, -1},
+    {0, 1, 0, -1, +1, -1},
+    {1, 1, 0, +1, +1, -1},
+    {0, 0, 1, -1, -1, +1},
+    {1, 0, 1, +1, -1, +1},
+    {0, 1, 1, -1, +1, +1},
+    {1, 1, 1, +1, +1, +1},
+}};
+
+}  // namespace
+
+System::System(const Case& c, std::vector<Contact> contacts)
+    : nx_(c.lattice.nx),
+      ny_(c.lattice.ny),
+      nz_(c.lattice.nz),
+      n_(std::int64_t{nx_} * ny_ * nz_),
+      contacts_(std::move(contacts)) {
+  const auto& mat = c.material;
+  a_ = c.lattice.spacing;
+  mass_ = mat.density * a_ * a_ * a_;
+  // §2: G1 = c_t², G2 from the paper's Eq. (1) or the Navier equation.
+  g1_ = mat.youngs_modulus / (2.0 * (1.0 + mat.poisson_ratio) * mat.density);
+  g2_ = mat.grad_div == GradDiv::paper ? (1.0 + 2.0 * mat.poisson_ratio) * g1_
+                                       : g1_ / (1.0 - 2.0 * mat.poisson_ratio);
+  // k1/m = G1/a², k2/m = G2/a², k_d = k1.
+  k1_over_m_ = g1_ / (a_ * a_);
+  k2_over_m_ = g2_ / (a_ * a_);
+  kd_over_m_ = k1_over_m_;
+  const double omega0 = std::sqrt(g1_ + g2_) / a_;
+  eta_ = c.damping.bulk * omega0;
+  eta_c_ = c.damping.contact * omega0;
+  v_ = c.drive.velocity;
+  const auto& iface = c.interface;
+  law_.shape = iface.shape;
+  contact_force_scale_ = iface.epsilon * a_ * a_ * iface.shear_stress / mass_;
+  // §7: F_N = ε θ P0 Nx Ny a² with θ = N_c/(Nx Ny).
+  normal_force_ = iface.epsilon * static_cast<double>(contacts_.size()) * iface.max_pressure * a_ * a_;
+  mu_prefactor_ = iface.shear_stress / iface.max_pressure;
+
+  x_next_.resize(nx_);
+  y_next_.resize(ny_);
+  for (int i = 0; i < nx_; ++i) x_next_[i] = (i + 1) % nx_;
+  for (int i = 0; i < ny_; ++i) y_next_[i] = (i + 1) % ny_;
+  for (const auto& ct : contacts_) {
+    if (ct.ix < 0 || ct.ix >= nx_ || ct.iy < 0 || ct.iy >= ny_ || !(ct.v_star > 0.0))
+      throw std::invalid_argument("contact outside the bottom layer or with v* <= 0");
+    contact_node_.push_back(node(ct.ix, ct.iy, 0));
+  }
+  predicted_speed_.resize(contacts_.size());
+}
+
+std::string System::describe_component(std::int64_t i) const {
+  static const char* const kQuadratureNames[] = {"the work integral", "the dissipation integral",
+                                                 "the friction impulse"};
+  if (i >= 6 * n_) return kQuadratureNames[i - 6 * n_];
+  const bool velocity = i >= 3 * n_;
+  const std::int64_t r = velocity ? i - 3 * n_ : i;
+  const std::int64_t n = r / 3;
+  const int ix = static_cast<int>(n % nx_), iy = static_cast<int>((n / nx_) % ny_),
+            iz = static_cast<int>(n / (std::int64_t{nx_} * ny_));
+  return std::string(velocity ? "w^" : "u^") + "xyz"[r % 3] + " of node (" + std::to_string(ix) +
+         ", " + std::to_string(iy) + ", " + std::to_string(iz) + ")";
+}
+
+double System::coverage() const { return static_cast<double>(contacts_.size()) / (nx_ * ny_); }
+
+void System::initial_state(InitialState initial, std::span<double> y) const {
+  std::fill(y.begin(), y.end(), 0.0);
+  if (initial == InitialState::sliding)
+    for (std::int64_t n = 0; n < n_; ++n) y[w_index(n, 0)] = v_;
+}
+
+// Elastic, damping and drive accelerations (MODEL.md §3–5), overwriting the
+// velocity block of ydot. Faces and cells are visited once each and their
+// forces scattered to both ends, which counts periodic images with their
+// multiplicity on small lattices exactly as §3 defines.
+void System::add_lattice_accelerations(double t, std::span<const double> y,
+                                       std::span<double> ydot) const {
+  const double* u = y.data();
+  const double* w = y.data() + 3 * n_;
+  double* acc = ydot.data() + 3 * n_;
+  std::fill(acc, acc + 3 * n_, 0.0);
+  const double k1 = k1_over_m_, k2 = k2_over_m_, eta = eta_;
+
+  auto face = [&](std::int64_t i, std::int64_t j) {
+    for (int k = 0; k < 3; ++k) {
+      const double d = k1 * (u[3 * j + k] - u[3 * i + k]) + eta * (w[3 * j + k] - w[3 * i + k]);
+      acc[3 * i + k] += d;
+      acc[3 * j + k] -= d;
+    }
+  };
+  for (int iz = 0; iz < nz_; ++iz)
+    for (int iy = 0; iy < ny_; ++iy)
+      for (int ix = 0; ix < nx_; ++ix) {
+        const std::int64_t i = node(ix, iy, iz);
+        face(i, node(x_next_[ix], iy, iz));
+        face(i, node(ix, y_next_[iy], iz));
+        if (iz + 1 < nz_) face(i, i + std::int64_t{nx_} * ny_);
+      }
+
+  // Cells: U_c = (k2/2) D_c², D_c = ¼ Σ_corners s·u, so F_corner = −k2 D_c ¼ s.
+  for (int iz = 0; iz + 1 < nz_; ++iz)
+    for (int iy = 0; iy < ny_; ++iy)
+      for (int ix = 0; ix < nx_; ++ix) {
+        const int xs[2] = {ix, x_next_[ix]};
+        const int ys[2] = {iy, y_next_[iy]};
+        std::int64_t corner[8];
+        double d = 0.0;
+        for (int c = 0; c < 8; ++c) {
+          const Corner& k = kCorners[c];
+          corner[c] = node(xs[k.dx], ys[k.dy], iz + k.dz);
+          const double* uc = u + 3 * corner[c];
+          d += k.sx * uc[0] + k.sy * uc[1] + k.sz * uc[2];
+        }
+        const double f = -k2 * 0.0625 * d;  // −k2 (¼ Σ s·u) ¼
+        for (int c = 0; c < 8; ++c) {
+          double* ac = acc + 3 * corner[c];
+          ac[0] += f * kCorners[c].sx;
+          ac[1] += f * kCorners[c].sy;
+          ac[2] += f * kCorners[c].sz;
+        }
+      }
+
+  // Drive springs and dashpots to the plate moving at (v, 0, 0) (§5).
+  const double kd = kd_over_m_;
+  const double anchor = v_ * t;
+  for (std::int64_t n = node(0, 0, nz_ - 1); n < n_; ++n) {
+    acc[3 * n + 0] += kd * (anchor - u[3 * n + 0]) + eta * (v_ - w[3 * n + 0]);
+    acc[3 * n + 1] += -kd * u[3 * n + 1] - eta * w[3 * n + 1];
+    acc[3 * n + 2] += -kd * u[3 * n + 2] - eta * w[3 * n + 2];
+  }
+}
+
+void System::add_contact_accelerations(std::span<const double> y, std::span<double> ydot) const {
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const std::int64_t wx = w_index(contact_node_[i], 0);
+    const auto a =
+        contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star, y[wx], y[wx + 1]);
+    ydot[wx] += a[0];
+    ydot[wx + 1] += a[1];
+  }
+}
+
+void System::rhs_explicit(double t, std::span<const double> y, std::span<double> ydot) const {
+  std::copy(y.begin() + 3 * n_, y.begin() + 6 * n_, ydot.begin());  // u' = w
+  add_lattice_accelerations(t, y, ydot);
+  ydot[quadrature_index(work_in)] = power_in(t, y);
+  ydot[quadrature_index(dissipated)] = dissipation(y);
+  ydot[quadrature_index(friction_impulse)] = friction_force(t, y);
+}
+
+void System::rhs_implicit(double, std::span<const double> y, std::span<double> ydot) const {
+  std::fill(ydot.begin(), ydot.end(), 0.0);
+  add_contact_accelerations(y, ydot);
+}
+
+void System::rhs(double t, std::span<const double> y, std::span<double> ydot) const {
+  rhs_explicit(t, y, ydot);
+  add_contact_accelerations(y, ydot);
+}
+
+std::array<double, 4> System::contact_block(std::size_t i, std::span<const double> y) const {
+  const std::int64_t wx = w_index(contact_node_[i], 0);
+  return contact_jacobian(law_, contact_force_scale_, eta_c_, contacts_[i].v_star, y[wx], y[wx + 1]);
+}
+
+SparseJacobian System::jacobian_pattern(JacobianPart part) const {
+  using Triplet = Eigen::Triplet<double, std::int64_t>;
+  std::vector<Triplet> t;
+  const std::int64_t size = this->size();
+  for (std::int64_t r = 0; r < size; ++r) t.emplace_back(r, r, 0.0);
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const std::int64_t wx = w_index(contact_node_[i], 0);
+    for (int r = 0; r < 2; ++r)
+      for (int c = 0; c < 2; ++c) t.emplace_back(wx + r, wx + c, 0.0);
+  }
+  if (part == JacobianPart::full) {
+    // u' = w.
+    for (std::int64_t r = 0; r < 3 * n_; ++r) t.emplace_back(r, 3 * n_ + r, 1.0);
+    // Faces: a_i += k1 (u_j − u_i) + η (w_j − w_i), and the opposite on j.
+    auto face = [&](std::int64_t i, std::int64_t j) {
+      for (int k = 0; k < 3; ++k)
+        for (auto [coef, offset] : {std::pair{k1_over_m_, std::int64_t{0}}, {eta_, 3 * n_}}) {
+          t.emplace_back(w_index(i, k), offset + 3 * j + k, coef);
+          t.emplace_back(w_index(i, k), offset + 3 * i + k, -coef);
+          t.emplace_back(w_index(j, k), offset + 3 * i + k, coef);
+          t.emplace_back(w_index(j, k), offset + 3 * j + k, -coef);
+        }
+    };
+    for (int iz = 0; iz < nz_; ++iz)
+      for (int iy = 0; iy < ny_; ++iy)
+        for (int ix = 0; ix < nx_; ++ix) {
+          const std::int64_t i = node(ix, iy, iz);
+          face(i, node(x_next_[ix], iy, iz));
+          face(i, node(ix, y_next_[iy], iz));
+          if (iz + 1 < nz_) face(i, node(ix, iy, iz + 1));
+        }
+    // Cells: ∂a_c/∂u_d = −(k2/16) s_c s_dᵀ.
+    for (int iz = 0; iz + 1 < nz_; ++iz)
+      for (int iy = 0; iy < ny_; ++iy)
+        for (int ix = 0; ix < nx_; ++ix) {
+          const int xs[2] = {ix, x_next_[ix]};
+          const int ys[2] = {iy, y_next_[iy]};
+          for (const Corner& c : kCorners)
+            for (const Corner& d : kCorners) {
+              const std::int64_t nc = node(xs[c.dx], ys[c.dy], iz + c.dz);
+              const std::int64_t nd = node(xs[d.dx], ys[d.dy], iz + d.dz);
+              const double sc[3] = {c.sx, c.sy, c.sz}, sd[3] = {d.sx, d.sy, d.sz};
+              for (int k = 0; k < 3; ++k)
+                for (int l = 0; l < 3; ++l)
+                  t.emplace_back(w_index(nc, k), u_index(nd, l), -k2_over_m_ * 0.0625 * sc[k] * sd[l]);
+            }
+        }
+    // Drive.
+    for (std::int64_t n = node(0, 0, nz_ - 1); n < n_; ++n)
+      for (int k = 0; k < 3; ++k) {
+        t.emplace_back(w_index(n, k), u_index(n, k), -kd_over_m_);
+        t.emplace_back(w_index(n, k), w_index(n, k), -eta_);
+      }
+  }
+  Eigen::SparseMatrix<double, Eigen::RowMajor, std::int64_t> m(size, size);
+  m.setFromTriplets(t.begin(), t.end());
+  m.makeCompressed();
+
+  SparseJacobian jac;
+  jac.size = size;
+  jac.row_start.assign(m.outerIndexPtr(), m.outerIndexPtr() + size + 1);
+  jac.column.assign(m.innerIndexPtr(), m.innerIndexPtr() + m.nonZeros());
+  jac.constant_value.assign(m.valuePtr(), m.valuePtr() + m.nonZeros());
+  jac.value = jac.constant_value;
+  auto slot = [&](std::int64_t r, std::int64_t c) {
+    const auto first = jac.column.begin() + jac.row_start[r];
+    const auto last = jac.column.begin() + jac.row_start[r + 1];
+    return static_cast<std::int64_t>(std::lower_bound(first, last, c) - jac.column.begin());
+  };
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const std::int64_t wx = w_index(contact_node_[i], 0);
+    jac.contact_slot.push_back({slot(wx, wx), slot(wx, wx + 1), slot(wx + 1, wx), slot(wx + 1, wx + 1)});
+  }
+  return jac;
+}
+
+void System::jacobian_values(std::span<const double> y, SparseJacobian& jac) const {
+  std::copy(jac.constant_value.begin(), jac.constant_value.end(), jac.value.begin());
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const auto block = contact_block(i, y);
+    for (int k = 0; k < 4; ++k) jac.value[jac.contact_slot[i][k]] += block[k];
+  }
+}
+
+// Contact i: z + γ k(|z|) z = b with k(λ) = S φ(λ/v*)/λ + η_c ≥ 0 (S = ε f0/m),
+// so z is parallel to b and its length λ solves
+//     g(λ) = λ (1 + γ η_c) + γ S φ(λ/v*) − |b| = 0,   0 ≤ λ ≤ |b|/(1 + γ η_c),
+// where g starts negative and ends non-negative. On the velocity-weakening
+// branch (λ > v*) g need not be monotone; the bracket is then chosen on the
+// side of the predictor's speed so the root found continues the trajectory.
+// Newton runs in x = ln λ, where φ is a Gaussian and well-behaved across the
+// 10¹⁰–10¹⁵ s⁻¹ stiffness near rest that defeats Newton in λ (MODEL.md §12),
+// safeguarded by bisection of the bracket.
+long System::solve_implicit_stage(double gamma, std::span<const double> b,
+                                  std::span<double> z) const {
+  // z holds the predictor on entry; keep the contacts' predicted speeds before
+  // z is overwritten with b.
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const std::int64_t wx = w_index(contact_node_[i], 0);
+    predicted_speed_[i] = std::hypot(z[wx], z[wx + 1]);
+  }
+  std::copy(b.begin(), b.end(), z.begin());
+  long iterations = 0;
+  const double damping = 1.0 + gamma * eta_c_;
+  const double gs = gamma * contact_force_scale_;
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const std::int64_t wx = w_index(contact_node_[i], 0);
+    const double bx = b[wx], by = b[wx + 1];
+    const double b_len = std::hypot(bx, by);
+    if (b_len == 0.0) continue;
+    const double v_star = contacts_[i].v_star;
+    auto g = [&](double lambda) { return lambda * damping + gs * law_.phi(lambda / v_star) - b_len; };
+    auto dg = [&](double lambda) { return damping + gs * law_.dphi(lambda / v_star) / v_star; };
+
+    double hi = b_len / damping;
+    // Below this speed φ is under 1e-300: the force is pure damping.
+    double lo = v_star * 1e-40;
+    if (hi <= lo || g(lo) >= 0.0) {
+      z[wx] = bx / damping;
+      z[wx + 1] = by / damping;
+      continue;
+    }
+    // The predictor's speed (b itself when gamma is small) picks the bracket.
+    double lambda = std::clamp(predicted_speed_[i], lo, hi);
+    if (lambda > lo && lambda < hi) (g(lambda) < 0.0 ? lo : hi) = lambda;
+    lambda = std::sqrt(lo * hi);
+    bool converged = false;
+    for (int it = 0; it < 200 && !converged; ++it) {
+      ++iterations;
+      const double gl = g(lambda);
+      if (gl == 0.0) break;
+      (gl < 0.0 ? lo : hi) = lambda;
+      const double slope = lambda * dg(lambda);  // dg/dx, x = ln λ
+      double next = slope > 0.0 ? lambda * std::exp(-gl / slope) : 0.0;
+      if (!(next > lo && next < hi)) next = std::sqrt(lo * hi);  // bisect in x
+      converged = std::abs(next - lambda) <= 1e-15 * lambda || hi - lo <= 1e-15 * hi;
+      lambda = next;
+    }
+    if (!std::isfinite(lambda)) throw std::runtime_error("contact stage solve produced a non-finite speed");
+    const double scale = lambda / b_len;
+    z[wx] = bx * scale;
+    z[wx + 1] = by * scale;
+  }
+  return iterations;
+}
+
+double System::friction_force(double t, std::span<const double> y) const {
+  double sum = 0.0;
+  const double anchor = v_ * t;
+  for (std::int64_t n = node(0, 0, nz_ - 1); n < n_; ++n) sum += anchor - y[u_index(n, 0)];
+  return mass_ * kd_over_m_ * sum;
+}
+
+double System::power_in(double t, std::span<const double> y) const {
+  double sum = 0.0;
+  const double anchor = v_ * t;
+  for (std::int64_t n = node(0, 0, nz_ - 1); n < n_; ++n)
+    sum += kd_over_m_ * (anchor - y[u_index(n, 0)]) + eta_ * (v_ - y[w_index(n, 0)]);
+  return mass_ * v_ * sum;
+}
+
+double System::lattice_dissipation(std::span<const double> y) const {
+  const double* w = y.data() + 3 * n_;
+  double faces = 0.0;
+  auto face = [&](std::int64_t i, std::int64_t j) {
+    for (int k = 0; k < 3; ++k) {
+      const double d = w[3 * j + k] - w[3 * i + k];
+      faces += d * d;
+    }
+  };
+  for (int iz = 0; iz < nz_; ++iz)
+    for (int iy = 0; iy < ny_; ++iy)
+      for (int ix = 0; ix < nx_; ++ix) {
+        const std::int64_t i = node(ix, iy, iz);
+        face(i, node(x_next_[ix], iy, iz));
+        face(i, node(ix, y_next_[iy], iz));
+        if (iz + 1 < nz_) face(i, node(ix, iy, iz + 1));
+      }
+  double drive = 0.0;
+  for (std::int64_t n = node(0, 0, nz_ - 1); n < n_; ++n) {
+    const double dx = v_ - w[3 * n], dy = w[3 * n + 1], dz = w[3 * n + 2];
+    drive += dx * dx + dy * dy + dz * dz;
+  }
+  return mass_ * eta_ * (faces + drive);
+}
+
+// ε f0 φ |s| + m η_c |s|² = −m a·s for each contact.
+double System::contact_dissipation(std::span<const double> y) const {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < contacts_.size(); ++i) {
+    const std::int64_t wx = w_index(contact_node_[i], 0);
+    const auto a =
+        contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star, y[wx], y[wx + 1]);
+    sum -= a[0] * y[wx] + a[1] * y[wx + 1];
+  }
+  return mass_ * sum;
+}
+
+double System::dissipation(std::span<const double> y) const {
+  return lattice_dissipation(y) + contact_dissipation(y);
+}
+
+EnergyTerms System::energy(double t, std::span<const double> y) const {
+  const double* u = y.data();
+  const double* w = y.data() + 3 * n_;
+  EnergyTerms e;
+  for (std::int64_t r = 0; r < 3 * n_; ++r) e.kinetic += w[r] * w[r];
+  e.kinetic *= 0.5 * mass_;
+
+  double faces = 0.0, cells = 0.0;
+  auto face = [&](std::int64_t i, std::int64_t j) {
+    for (int k = 0; k < 3; ++k) {
+      const double d = u[3 * j + k] - u[3 * i + k];
+      faces += d * d;
+    }
+  };
+  for (int iz = 0; iz < nz_; ++iz)
+    for (int iy = 0; iy < ny_; ++iy)
+      for (int ix = 0; ix < nx_; ++ix) {
+        const std::int64_t i = node(ix, iy, iz);
+        face(i, node(x_next_[ix], iy, iz));
+        face(i, node(ix, y_next_[iy], iz));
+        if (iz + 1 < nz_) face(i, node(ix, iy, iz + 1));
+      }
+  for (int iz = 0; iz + 1 < nz_; ++iz)
+    for (int iy = 0; iy < ny_; ++iy)
+      for (int ix = 0; ix < nx_; ++ix) {
+        const int xs[2] = {ix, x_next_[ix]};
+        const int ys[2] = {iy, y_next_[iy]};
+        double d = 0.0;
+        for (const Corner& k : kCorners) {
+          const double* uc = u + 3 * node(xs[k.dx], ys[k.dy], iz + k.dz);
+          d += k.sx * uc[0] + k.sy * uc[1] + k.sz * uc[2];
+        }
+        d *= 0.25;
+        cells += d * d;
+      }
+  e.elastic = 0.5 * mass_ * (k1_over_m_ * faces + k2_over_m_ * cells);
+
+  const double anchor = v_ * t;
+  double spring = 0.0;
+  for (std::int64_t n = node(0, 0, nz_ - 1); n < n_; ++n) {
+    const double dx = anchor - u[3 * n], dy = u[3 * n + 1], dz = u[3 * n + 2];
+    spring += dx * dx + dy * dy + dz * dz;
+  }
+  e.drive = 0.5 * mass_ * kd_over_m_ * spring;
+  return e;
+}
+
+double System::energy_residual(double t, std::span<const double> y,
+                               std::span<const double> y0) const {
+  const double work = y[quadrature_index(work_in)];
+  const double net = work - y[quadrature_index(dissipated)];
+  const double change = energy(t, y).total() - energy(0.0, y0).total();
+  return work != 0.0 ? (change - net) / work : 0.0;
+}
+
+std::array<double, 2> System::contact_velocity(std::size_t i, std::span<const double> y) const {
+  const std::int64_t wx = w_index(contact_node_[i], 0);
+  return {y[wx], y[wx + 1]};
+}
+
+double System::steady_sliding_mu() const {
+  double mean_phi = 0.0;
+  for (const auto& c : contacts_) mean_phi += law_.phi(v_ / c.v_star);
+  mean_phi /= static_cast<double>(contacts_.size());
+  // m η_c v / (ε P0 a²) = η_c v / (ε f0/m) × τ_f/P0.
+  return mu_prefactor_ * (mean_phi + eta_c_ * v_ / contact_force_scale_);
+}
+
+}  // namespace stickslip

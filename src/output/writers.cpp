@@ -1,0 +1,56 @@
+#include "stickslip/output/writers.hpp"
+
+#include <system_error>
+
+namespace stickslip {
+
+void prepare_output_dir(const std::filesystem::path& dir, bool overwrite) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
+    throw OutputError(dir.string() + ": output path exists and is not a directory");
+  for (const char* name : kOutputFiles) {
+    const fs::path file = dir / name;
+    if (!fs::exists(file, ec)) continue;
+    if (!overwrite)
+      throw OutputError(dir.string() + ": holds results of an earlier run (" + name +
+                        "); pass --overwrite to replace them or choose another --out");
+    fs::remove(file, ec);
+  }
+  fs::create_directories(dir, ec);
+  if (ec) throw OutputError(dir.string() + ": cannot create output directory: " + ec.message());
+  const fs::path probe = dir / ".stickslip-write-test";
+  { std::ofstream test(probe); if (!test) throw OutputError(dir.string() + ": output directory is not writable"); }
+  fs::remove(probe, ec);
+}
+
+CsvWriter::CsvWriter(const std::filesystem::path& file, const std::vector<std::string>& header)
+    : out_(file), file_(file) {
+  if (!out_) throw OutputError(file.string() + ": cannot open for writing");
+  for (std::size_t i = 0; i < header.size(); ++i) out_ << (i ? "," : "") << header[i];
+  out_ << '\n';
+}
+
+void CsvWriter::row(double t, std::span<const double> values) {
+  std::snprintf(buffer_, sizeof buffer_, "%.12g", t);
+  out_ << buffer_;
+  for (double v : values) {
+    std::snprintf(buffer_, sizeof buffer_, ",%.10g", v);
+    out_ << buffer_;
+  }
+  out_ << '\n';
+}
+
+void write_json_atomically(const std::filesystem::path& file, const nlohmann::json& value) {
+  const auto tmp = std::filesystem::path(file.string() + ".tmp");
+  {
+    std::ofstream out(tmp);
+    if (!out) throw OutputError(tmp.string() + ": cannot open for writing");
+    out << value.dump(2) << '\n';
+    out.flush();
+    if (!out) throw OutputError(tmp.string() + ": write failed");
+  }
+  std::filesystem::rename(tmp, file);
+}
+
+}  // namespace stickslip
