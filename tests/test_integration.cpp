@@ -1,0 +1,101 @@
+// Integrated runs checked against exact results: the exact stage solve, the
+// energy audit's convergence with tolerance, and steady sliding's exact μ.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "stickslip/case/reader.hpp"
+#include "stickslip/integrate/arkode_integrator.hpp"
+#include "stickslip/model/system.hpp"
+#include "stickslip/run/run.hpp"
+
+using namespace stickslip;
+
+namespace {
+
+Case two_contact_case() {
+  Case c;
+  c.lattice = {6, 6, 4, 1e-4};
+  c.interface.contacts = {{1, 2, 4.75e-4, 0}, {4, 2, 2.09e-3, 0}};
+  return c;
+}
+
+System make_system(const Case& c) { return System(c, place_contacts(c.lattice, c.interface)); }
+
+}  // namespace
+
+TEST_CASE("implicit stage equation is solved to rounding, from rest to fast slip", "[stage]") {
+  const Case c = two_contact_case();
+  const System s = make_system(c);
+  std::mt19937_64 gen(11);
+  std::uniform_real_distribution<double> angle(0.0, 2 * std::numbers::pi);
+  std::vector<double> b(static_cast<std::size_t>(s.size())), z(b.size()), f(b.size());
+  for (double gamma : {1e-12, 1e-10, 1e-8, 1e-6})
+    for (double speed : {1e-16, 1e-9, 1e-6, 4e-4, 3e-3, 0.2}) {
+      for (auto& x : b) x = speed * std::cos(angle(gen));
+      std::fill(z.begin(), z.end(), 0.0);  // a poor predictor: at rest
+      s.solve_implicit_stage(gamma, b, z);
+      s.rhs_implicit(0.0, z, f);
+      double worst = 0.0;
+      for (std::size_t i = 0; i < b.size(); ++i)
+        worst = std::max(worst, std::abs(z[i] - gamma * f[i] - b[i]));
+      INFO("gamma = " << gamma << ", |b| ~ " << speed);
+      CHECK(worst <= 1e-13 * speed);
+    }
+}
+
+TEST_CASE("energy audit residual shrinks as the tolerance is tightened", "[audit]") {
+  // From rest through the first slips of the weak contact: the audit must
+  // close better when the integration is more accurate.
+  Case c = two_contact_case();
+  const System s = make_system(c);
+  auto residual = [&](double rtol) {
+    c.solver.rtol = rtol;
+    c.solver.atol_displacement = rtol * 1e-6;
+    c.solver.atol_velocity = rtol * 1e-1;
+    std::vector<double> y0(static_cast<std::size_t>(s.size()));
+    s.initial_state(InitialState::rest, y0);
+    std::vector<double> y = y0;
+    const double t_end = 1e-3;
+    ArkodeIntegrator integrator(s, c.solver, y0, t_end);
+    integrator.advance_to(t_end, y);
+    return std::abs(s.energy_residual(t_end, y, y0));
+  };
+  const double loose = residual(1e-4), tight = residual(1e-7);
+  INFO("residual at rtol 1e-4: " << loose << ", at rtol 1e-7: " << tight);
+  CHECK(tight < loose / 10);
+  CHECK(tight < 1e-6);
+}
+
+TEST_CASE("cases/steady.toml reaches the exact steady-sliding mu", "[steady]") {
+  const Case c = read_case(std::filesystem::path(STICKSLIP_SOURCE_DIR) / "cases/steady.toml");
+  const auto contacts = place_contacts(c.lattice, c.interface);
+  // Every contact must be in the steady regime v* ≥ 3v for §7's formula.
+  for (const auto& ct : contacts) REQUIRE(ct.v_star >= 3 * c.drive.velocity);
+
+  // μ = (τ_f/P0) mean φ(v/v*) + m η_c v / (ε P0 a²), written out from MODEL.md §7.
+  const auto& i = c.interface;
+  const double a = c.lattice.spacing, m = c.material.density * a * a * a;
+  const double nu = c.material.poisson_ratio, e = c.material.youngs_modulus, rho = c.material.density;
+  const double g1 = e / (2 * (1 + nu) * rho), g2 = (1 + 2 * nu) * g1;
+  const double eta_c = c.damping.contact * std::sqrt(g1 + g2) / a;
+  double mean_phi = 0.0;
+  for (const auto& ct : contacts) {
+    const double l = std::log10(c.drive.velocity / ct.v_star);
+    mean_phi += std::exp(-i.shape * l * l) / static_cast<double>(contacts.size());
+  }
+  const double exact = i.shear_stress / i.max_pressure * mean_phi +
+                       m * eta_c * c.drive.velocity / (i.epsilon * i.max_pressure * a * a);
+
+  RunOptions options;
+  options.out_dir = std::filesystem::temp_directory_path() / "stickslip_test_steady";
+  options.overwrite = true;
+  options.quiet = true;
+  const RunResult r = run_case(c, options);
+  std::filesystem::remove_all(options.out_dir);
+  INFO("mu = " << r.mu << ", exact " << exact);
+  CHECK(std::abs(r.mu / exact - 1) < 5e-3);
+  CHECK(std::abs(r.energy_residual) < 1e-5);
+}
