@@ -304,7 +304,7 @@ TEST_CASE("trace selection", "[case]") {
                       "contact ids, got \"some\"");
 }
 
-TEST_CASE("--set overrides replace or add values before validation", "[case][set]") {
+TEST_CASE("overrides from --set replace or add values before validation", "[case][set]") {
   const Case c =
       parse("[drive]\nvelocity = 1e-3\n",
             {"drive.velocity=2e-3", "lattice.nx = 7", "material.grad_div=\"navier\"",

@@ -1,0 +1,294 @@
+// The command line, run as a real process: exit codes, one-line error messages
+// (file:line: section.key: what), and that bad input writes nothing at all.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <catch2/catch.hpp>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+using Catch::Contains;
+using Catch::StartsWith;
+
+namespace {
+
+std::string slurp(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+void spit(const fs::path& file, const std::string& text) {
+  std::ofstream(file, std::ios::binary) << text;
+}
+
+std::string quote(const std::string& s) {  // for /bin/sh
+  std::string q = "'";
+  for (char ch : s) q += ch == '\'' ? std::string("'\\''") : std::string(1, ch);
+  return q + "'";
+}
+
+std::size_t lines(const std::string& text) {
+  return static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n'));
+}
+
+struct Result {
+  int code;
+  std::string out, err;
+};
+
+// A fresh directory per test: `work` is the binary's working directory and holds
+// the case files and outputs; the captured stdout/stderr live beside it, so a
+// snapshot of `work` sees everything the program may have written.
+struct Sandbox {
+  fs::path root, work;
+  Sandbox() {
+    static std::atomic<int> counter{0};
+    root = fs::temp_directory_path() /
+           ("stickslip_cli_" + std::to_string(getpid()) + "_" + std::to_string(counter++));
+    fs::remove_all(root);
+    work = root / "work";
+    fs::create_directories(work);
+  }
+  ~Sandbox() {
+    std::error_code ec;
+    fs::remove_all(root, ec);
+  }
+  Sandbox(const Sandbox&) = delete;
+  Sandbox& operator=(const Sandbox&) = delete;
+
+  fs::path write(const std::string& name, const std::string& text) const {
+    spit(work / name, text);
+    return work / name;
+  }
+
+  Result run(const std::vector<std::string>& args) const {
+    std::string cmd = "cd " + quote(work.string()) + " && " + quote(STICKSLIP_EXE);
+    for (const auto& a : args) cmd += " " + quote(a);
+    cmd += " >" + quote((root / "stdout").string()) + " 2>" + quote((root / "stderr").string());
+    const int status = std::system(cmd.c_str());
+    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    return {code, slurp(root / "stdout"), slurp(root / "stderr")};
+  }
+
+  // Every file and directory under `work`, with the contents of the files.
+  std::map<std::string, std::string> snapshot() const {
+    std::map<std::string, std::string> all;
+    for (const auto& e : fs::recursive_directory_iterator(work))
+      all[fs::relative(e.path(), work).string()] =
+          e.is_directory() ? std::string("<dir>") : slurp(e.path());
+    return all;
+  }
+};
+
+const std::string kTiny =
+    "[lattice]\nnx = 3\nny = 3\nnz = 2\n"
+    "[interface]\ncontacts = [{ site = [1, 1], v_star = 1e-2 }]\n"
+    "[run]\nt_end = 2e-5\naverage_from = 1e-5\n"
+    "[output]\ninterval = 1e-6\ntraces = \"all\"\n";
+
+// Runs `case_text` as bad.toml (or `case_name` if given, without writing it)
+// with --out and `extra`; checks it is refused as bad input: exit 2, one line on
+// stderr, nothing on stdout, nothing written. Returns the stderr text and the
+// case path as passed to the program.
+std::pair<std::string, std::string> refused(const std::string& case_text,
+                                            const std::vector<std::string>& extra = {},
+                                            const char* case_name = nullptr) {
+  Sandbox box;
+  const fs::path file = case_name ? box.work / case_name : box.write("bad.toml", case_text);
+  const fs::path out = box.work / "out_dir";
+  std::vector<std::string> args{"run", file.string(), "--out", out.string(), "--quiet"};
+  args.insert(args.end(), extra.begin(), extra.end());
+  const auto before = box.snapshot();
+  const Result r = box.run(args);
+  INFO("stderr: " << r.err);
+  CHECK(r.code == 2);
+  CHECK(lines(r.err) == 1);
+  CHECK((!r.err.empty() && r.err.back() == '\n'));
+  CHECK(r.out.empty());
+  CHECK_FALSE(fs::exists(out));
+  CHECK(box.snapshot() == before);
+  return {r.err, file.string()};
+}
+
+}  // namespace
+
+TEST_CASE("malformed TOML is bad input, blamed on its line", "[cli]") {
+  const auto [err, file] = refused("[lattice]\nnx = 3\nny = = 3\n");
+  CHECK_THAT(err, StartsWith("error: " + file + ":3: malformed TOML: "));
+}
+
+TEST_CASE("an unknown key is bad input, and the nearest key is suggested", "[cli]") {
+  const auto [err, file] = refused("[lattice]\nnx = 3\n[interface]\ncoverag = 0.5\n");
+  CHECK_THAT(err, StartsWith("error: " + file + ":4: interface.coverag: unknown key 'coverag'"));
+  CHECK_THAT(err, Contains("did you mean 'coverage'?"));
+}
+
+TEST_CASE("a value of the wrong type is bad input", "[cli]") {
+  {
+    const auto [err, file] = refused("[lattice]\nnx = \"3\"\n");
+    CHECK(err == "error: " + file + ":2: lattice.nx: expected an integer, got string\n");
+  }
+  {
+    const auto [err, file] = refused("[lattice]\nnx = 3\n\n[interface]\ncoverage = \"half\"\n");
+    CHECK(err == "error: " + file + ":5: interface.coverage: expected a number, got string\n");
+  }
+}
+
+TEST_CASE("an out-of-range value is bad input, blamed on its line and key", "[cli]") {
+  struct Bad {
+    std::string text, where, what;
+  };
+  for (const Bad& b : std::vector<Bad>{
+           {"[lattice]\nnx = 3\n[interface]\ncoverage = 1.5\n",
+            ":4: interface.coverage: ", "must be in (0, 1], got 1.5"},
+           {"[lattice]\nnx = 3\nnz = 1\n", ":3: lattice.nz: ", "must be >= 2, got 1"},
+           {"[lattice]\n\n\nspacing = -1e-6\n", ":4: lattice.spacing: ", "must be > 0, got -1e-06"},
+       }) {
+    INFO(b.text);
+    const auto [err, file] = refused(b.text);
+    CHECK(err == "error: " + file + b.where + b.what + "\n");
+  }
+}
+
+TEST_CASE("an out-of-range value from --set value is bad input, blamed on --set and the key",
+          "[cli]") {
+  {
+    const auto [err, file] = refused(kTiny, {"--set", "interface.coverage=1.5"});
+    CHECK(err == "error: --set interface.coverage: must be in (0, 1], got 1.5\n");
+  }
+  {
+    const auto [err, file] = refused(kTiny, {"--set", "lattice.nz=1"});
+    CHECK(err == "error: --set lattice.nz: must be >= 2, got 1\n");
+  }
+}
+
+TEST_CASE("a missing case file is bad input", "[cli]") {
+  const auto [err, file] = refused("", {}, "no_such_case.toml");
+  CHECK(err == "error: " + file + ": cannot read case file: No such file or directory\n");
+}
+
+TEST_CASE("an output directory holding results is refused without --overwrite", "[cli]") {
+  Sandbox box;
+  const fs::path file = box.write("tiny.toml", kTiny);
+  const fs::path out = box.work / "results";
+  fs::create_directories(out);
+  spit(out / "summary.json", "results of an earlier run\n");
+  const auto before = box.snapshot();
+  const Result r = box.run({"run", file.string(), "--out", out.string(), "--quiet"});
+  INFO("stderr: " << r.err);
+  CHECK(r.code == 2);
+  CHECK(lines(r.err) == 1);
+  CHECK_THAT(r.err, StartsWith("error: " + out.string() + ": "));
+  CHECK_THAT(r.err, Contains("--overwrite"));
+  CHECK(r.out.empty());
+  CHECK(slurp(out / "summary.json") == "results of an earlier run\n");
+  CHECK(box.snapshot() == before);
+
+  // A bad case with --overwrite is refused before the directory is touched.
+  const Result bad = box.run({"run", file.string(), "--out", out.string(), "--quiet", "--overwrite",
+                              "--set", "lattice.nz=1"});
+  CHECK(bad.code == 2);
+  CHECK(bad.err == "error: --set lattice.nz: must be >= 2, got 1\n");
+  CHECK(box.snapshot() == before);
+}
+
+TEST_CASE("an unknown command-line option is bad input", "[cli]") {
+  Sandbox box;
+  const fs::path file = box.write("tiny.toml", kTiny);
+  const fs::path out = box.work / "results";
+  const auto before = box.snapshot();
+  const Result r = box.run({"run", file.string(), "--out", out.string(), "--bogus"});
+  INFO("stderr: " << r.err);
+  CHECK(r.code == 2);
+  CHECK_THAT(r.err, Contains("--bogus"));
+  CHECK(r.out.empty());
+  CHECK_FALSE(fs::exists(out));
+  CHECK(box.snapshot() == before);
+}
+
+// Bad options are bad input like any other: one line, exit 2 (CLI11's own
+// report would be two lines).
+TEST_CASE("an unknown command-line option is reported in one line", "[cli]") {
+  Sandbox box;
+  const fs::path file = box.write("tiny.toml", kTiny);
+  const Result r = box.run({"run", file.string(), "--bogus"});
+  INFO("stderr: " << r.err);
+  CHECK(r.code == 2);
+  CHECK(lines(r.err) == 1);
+}
+
+TEST_CASE("a tiny case runs and writes its outputs; a rerun needs --overwrite", "[cli]") {
+  Sandbox box;
+  const fs::path file = box.write("tiny.toml", kTiny);
+  const fs::path out = box.work / "results";
+  const std::vector<std::string> args{"run", file.string(), "--out", out.string(), "--quiet"};
+
+  const Result r = box.run(args);
+  INFO("stdout: " << r.out << "stderr: " << r.err);
+  REQUIRE(r.code == 0);
+  CHECK_THAT(r.out, StartsWith("mu = "));
+  CHECK(r.err.empty());
+
+  REQUIRE(fs::exists(out / "summary.json"));
+  const auto summary = nlohmann::json::parse(slurp(out / "summary.json"));
+  CHECK(summary.at("mu").is_number());
+  CHECK(summary.at("contacts") == 1);
+
+  const std::string friction = slurp(out / "friction.csv");
+  CHECK_THAT(friction, StartsWith("t,F_f,mu_inst\n"));
+  CHECK(lines(friction) == 1 + 21);  // header, t = 0, and one row per 1e-6 s up to 2e-5 s
+  CHECK_THAT(friction, Contains("\n0,"));
+
+  const std::string contacts = slurp(out / "contacts.csv");
+  CHECK(lines(contacts) == 2);
+  CHECK_THAT(contacts, Contains("\n0,1,1,"));
+
+  const std::string traces = slurp(out / "traces.csv");
+  CHECK_THAT(traces, StartsWith("t,vx_0,vy_0\n"));
+  CHECK(lines(traces) == 1 + 21);
+
+  // Again, without --overwrite: refused, and nothing changes.
+  const auto before = box.snapshot();
+  const Result again = box.run(args);
+  CHECK(again.code == 2);
+  CHECK(lines(again.err) == 1);
+  CHECK_THAT(again.err, Contains("--overwrite"));
+  CHECK(box.snapshot() == before);
+
+  // With --overwrite: the results are replaced.
+  spit(out / "summary.json", "stale\n");
+  auto args_overwrite = args;
+  args_overwrite.push_back("--overwrite");
+  const Result replaced = box.run(args_overwrite);
+  CHECK(replaced.code == 0);
+  CHECK_THAT(replaced.out, StartsWith("mu = "));
+  CHECK(nlohmann::json::parse(slurp(out / "summary.json")).at("mu") == summary.at("mu"));
+  CHECK(slurp(out / "friction.csv") == friction);
+}
+
+// A summary.json that is a directory cannot be replaced, even with --overwrite:
+// refused up front (exit 2) rather than failing at the end of the run.
+TEST_CASE("an output directory whose summary.json is a directory is bad input", "[cli]") {
+  Sandbox box;
+  const fs::path file = box.write("tiny.toml", kTiny);
+  const fs::path out = box.work / "results";
+  fs::create_directories(out / "summary.json");
+  spit(out / "summary.json" / "keep", "x\n");
+  const auto before = box.snapshot();
+  const Result r = box.run({"run", file.string(), "--out", out.string(), "--quiet", "--overwrite"});
+  INFO("stderr: " << r.err);
+  CHECK(r.code == 2);
+  CHECK(lines(r.err) == 1);
+  CHECK(box.snapshot() == before);
+}

@@ -22,7 +22,8 @@ TEST_CASE("the generator's raw output is the one the C++ standard fixes", "[cont
   CHECK(gen() == 9981545732273789042ull);
 }
 
-TEST_CASE("random placement: distinct sites, v* in range, reproducible from the seed", "[contacts]") {
+TEST_CASE("random placement: distinct sites, v* in range, reproducible from the seed",
+          "[contacts]") {
   LatticeParams lattice;
   InterfaceParams iface;
   iface.coverage = 0.5;

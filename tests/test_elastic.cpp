@@ -1,6 +1,6 @@
 // Verification of the elastic operator of MODEL.md §3 against exact results.
-#include <catch2/catch.hpp>
 #include <Eigen/Dense>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -49,7 +49,8 @@ Eigen::MatrixXd stiffness_over_mass(const System& s) {
 
 }  // namespace
 
-TEST_CASE("elastic operator is symmetric, translation-free and negative semi-definite", "[elastic]") {
+TEST_CASE("elastic operator is symmetric, translation-free and negative semi-definite",
+          "[elastic]") {
   for (auto [nx, ny, nz] : {std::tuple{4, 3, 3}, {2, 3, 2}, {1, 4, 3}}) {
     const System s(lattice_case(nx, ny, nz), {});
     const Eigen::MatrixXd K = stiffness_over_mass(s);
@@ -97,11 +98,13 @@ TEST_CASE("transverse plane waves along x are exact eigenmodes", "[elastic]") {
     for (int comp : {1, 2}) {
       const double q = 2 * std::numbers::pi * p / (nx * a);
       std::vector<double> u(3 * s.num_nodes(), 0.0);
-      for (std::int64_t n = 0; n < s.num_nodes(); ++n) u[3 * n + comp] = std::sin(q * a * (n % nx) + 0.3);
+      for (std::int64_t n = 0; n < s.num_nodes(); ++n)
+        u[3 * n + comp] = std::sin(q * a * (n % nx) + 0.3);
       const auto acc = elastic_acceleration(s, u);
       const double omega = 2 / a * std::sqrt(s.g1()) * std::sin(q * a / 2);
       double worst = 0.0;
-      for (std::size_t i = 0; i < u.size(); ++i) worst = std::max(worst, std::abs(acc[i] + omega * omega * u[i]));
+      for (std::size_t i = 0; i < u.size(); ++i)
+        worst = std::max(worst, std::abs(acc[i] + omega * omega * u[i]));
       INFO("p = " << p << ", component " << comp);
       CHECK(worst <= 1e-10 * omega * omega);
     }

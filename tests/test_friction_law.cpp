@@ -10,7 +10,8 @@ TEST_CASE("phi peaks at r = 1, is symmetric in log r and vanishes at rest", "[fr
   const FrictionLaw law{0.1};
   CHECK(law.phi(1.0) == 1.0);
   CHECK(law.phi(10.0) == Approx(std::exp(-0.1)).epsilon(1e-15));
-  for (double r : {1e-6, 3e-2, 0.5, 2.0, 77.0}) CHECK(law.phi(r) == Approx(law.phi(1.0 / r)).epsilon(1e-13));
+  for (double r : {1e-6, 3e-2, 0.5, 2.0, 77.0})
+    CHECK(law.phi(r) == Approx(law.phi(1.0 / r)).epsilon(1e-13));
   CHECK(law.phi(0.0) == 0.0);
   CHECK(law.dphi(1.0) == 0.0);
   CHECK(law.dphi(0.5) > 0.0);

@@ -22,7 +22,9 @@ Case two_contact_case() {
   return c;
 }
 
-System make_system(const Case& c) { return System(c, place_contacts(c.lattice, c.interface)); }
+System make_system(const Case& c) {
+  return System(c, place_contacts(c.lattice, c.interface));
+}
 
 }  // namespace
 
@@ -78,7 +80,8 @@ TEST_CASE("cases/steady.toml reaches the exact steady-sliding mu", "[steady]") {
   // μ = (τ_f/P0) mean φ(v/v*) + m η_c v / (ε P0 a²), written out from MODEL.md §7.
   const auto& i = c.interface;
   const double a = c.lattice.spacing, m = c.material.density * a * a * a;
-  const double nu = c.material.poisson_ratio, e = c.material.youngs_modulus, rho = c.material.density;
+  const double nu = c.material.poisson_ratio, e = c.material.youngs_modulus,
+               rho = c.material.density;
   const double g1 = e / (2 * (1 + nu) * rho), g2 = (1 + 2 * nu) * g1;
   const double eta_c = c.damping.contact * std::sqrt(g1 + g2) / a;
   double mean_phi = 0.0;

@@ -24,7 +24,8 @@ struct Fixture {
     std::mt19937_64 gen(3);
     std::uniform_real_distribution<double> d(-1.0, 1.0);
     for (std::int64_t i = 0; i < 3 * system->num_nodes(); ++i) y[i] = 1e-6 * d(gen);
-    for (std::int64_t i = 3 * system->num_nodes(); i < 6 * system->num_nodes(); ++i) y[i] = 1e-3 * d(gen);
+    for (std::int64_t i = 3 * system->num_nodes(); i < 6 * system->num_nodes(); ++i)
+      y[i] = 1e-3 * d(gen);
     const double speeds[3][2] = {{5e-5, 2e-5}, {-8e-3, 1e-3}, {2e-2, -3e-2}};
     for (std::size_t k = 0; k < 3; ++k) {
       y[system->w_index(system->contact_node(k), 0)] = speeds[k][0];
@@ -40,7 +41,8 @@ void compare_with_finite_differences(const System& s, const std::vector<double>&
   // Dense copy of the sparse matrix.
   std::vector<double> dense(size * size, 0.0);
   for (std::size_t r = 0; r < size; ++r)
-    for (auto k = jac.row_start[r]; k < jac.row_start[r + 1]; ++k) dense[r * size + jac.column[k]] = jac.value[k];
+    for (auto k = jac.row_start[r]; k < jac.row_start[r + 1]; ++k)
+      dense[r * size + jac.column[k]] = jac.value[k];
   std::vector<double> yp = y, ym = y, fp(size), fm(size);
   double worst = 0.0, scale = 0.0;
   for (double v : jac.value) scale = std::max(scale, std::abs(v));
@@ -69,7 +71,8 @@ TEST_CASE("full Jacobian matches finite differences", "[jacobian]") {
   const System& s = *f.system;
   auto jac = s.jacobian_pattern(JacobianPart::full);
   s.jacobian_values(f.y, jac);
-  compare_with_finite_differences(s, f.y, jac, [&](const auto& y, auto& out) { s.rhs(0.0, y, out); });
+  compare_with_finite_differences(s, f.y, jac,
+                                  [&](const auto& y, auto& out) { s.rhs(0.0, y, out); });
 }
 
 TEST_CASE("contact Jacobian matches finite differences of the implicit rhs", "[jacobian]") {

@@ -1,7 +1,6 @@
 // stickslip: parse → build → integrate → write. Exit codes: 0 success,
 // 1 the integration failed, 2 bad input (case file, options, output directory).
 #include <CLI/CLI.hpp>
-
 #include <cstdio>
 #include <iostream>
 #include <string>
@@ -24,8 +23,9 @@ int run_command(const std::string& case_file, const std::string& out,
     options.overwrite = overwrite;
     options.quiet = quiet;
     const RunResult r = run_case(c, options);
-    std::printf("mu = %.6f  (theta = %.4f, %zu contacts, energy residual %.2e, %ld steps, %.1f s)\n",
-                r.mu, r.theta, r.contacts, r.energy_residual, r.stats.steps, r.wall_seconds);
+    std::printf(
+        "mu = %.6f  (theta = %.4f, %zu contacts, energy residual %.2e, %ld steps, %.1f s)\n", r.mu,
+        r.theta, r.contacts, r.energy_residual, r.stats.steps, r.wall_seconds);
     std::printf("outputs in %s\n", options.out_dir.string().c_str());
     return 0;
   } catch (const CaseError& e) {
@@ -37,13 +37,17 @@ int run_command(const std::string& case_file, const std::string& out,
   } catch (const IntegrationError& e) {
     std::fprintf(stderr, "error: integration failed: %s\n", e.what());
     return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
   }
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"stickslip: an elastic block sliding on stick-slip contacts (3D spring-block model)"};
+  CLI::App app{
+      "stickslip: an elastic block sliding on stick-slip contacts (3D spring-block model)"};
   app.require_subcommand(1);
   std::string case_file, out;
   std::vector<std::string> sets;
@@ -52,14 +56,15 @@ int main(int argc, char** argv) {
   run->add_option("case", case_file, "the case file (TOML)")->required();
   run->add_option("--out", out, "output directory (default: [output] dir, else out/<case name>)");
   run->add_option("--set", sets, "override a case value: section.key=value (repeatable)");
-  run->add_flag("--overwrite", overwrite, "replace the results of an earlier run in the output directory");
+  run->add_flag("--overwrite", overwrite,
+                "replace the results of an earlier run in the output directory");
   run->add_flag("--quiet", quiet, "no progress on stderr");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    app.exit(e);
+    std::fprintf(stderr, "error: %s (see stickslip --help)\n", e.what());
     return 2;
   }
   if (*run) return run_command(case_file, out, sets, overwrite, quiet);

@@ -40,10 +40,13 @@ ArkodeIntegrator::ArkodeIntegrator(const System& system, const SolverParams& sol
 
   // Stages solved exactly, contact by contact (contact_stage_solver.hpp).
   nonlinear_solver_ = make_contact_stage_solver(ctx_, system, stage_stats_);
-  check(ARKStepSetNonlinearSolver(arkode_mem_, nonlinear_solver_.get()), "ARKStepSetNonlinearSolver");
+  check(ARKStepSetNonlinearSolver(arkode_mem_, nonlinear_solver_.get()),
+        "ARKStepSetNonlinearSolver");
 }
 
-ArkodeIntegrator::~ArkodeIntegrator() { ARKStepFree(&arkode_mem_); }
+ArkodeIntegrator::~ArkodeIntegrator() {
+  ARKStepFree(&arkode_mem_);
+}
 
 int ArkodeIntegrator::explicit_rhs(double t, N_Vector y, N_Vector ydot, void* self) {
   auto* me = static_cast<ArkodeIntegrator*>(self);
@@ -63,8 +66,8 @@ void ArkodeIntegrator::advance_to(double t_out, std::span<double> y) {
   long steps = 0;
   ARKStepGetNumSteps(arkode_mem_, &steps);
   if (steps > max_steps_) {
-    throw IntegrationError("stopped at t = " + std::to_string(t) + " s after " + std::to_string(steps) +
-                           " steps: more than [solver] max_steps");
+    throw IntegrationError("stopped at t = " + std::to_string(t) + " s after " +
+                           std::to_string(steps) + " steps: more than [solver] max_steps");
   }
   const auto values = as_span(y_.get());
   std::copy(values.begin(), values.end(), y.begin());

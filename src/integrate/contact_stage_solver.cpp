@@ -12,10 +12,16 @@ struct Content {
   ContactStageStats* stats;
 };
 
-Content& content(SUNNonlinearSolver nls) { return *static_cast<Content*>(nls->content); }
+Content& content(SUNNonlinearSolver nls) {
+  return *static_cast<Content*>(nls->content);
+}
 
-SUNNonlinearSolver_Type get_type(SUNNonlinearSolver) { return SUNNONLINEARSOLVER_ROOTFIND; }
-int succeed(SUNNonlinearSolver) { return SUN_NLS_SUCCESS; }
+SUNNonlinearSolver_Type get_type(SUNNonlinearSolver) {
+  return SUNNONLINEARSOLVER_ROOTFIND;
+}
+int succeed(SUNNonlinearSolver) {
+  return SUN_NLS_SUCCESS;
+}
 
 // ARKStep's stage equation in its corrector form (arkode_arkstep_nls.c):
 //     zcor − γ f_I(zpred + zcor) − sdata = 0,
@@ -26,9 +32,10 @@ int solve(SUNNonlinearSolver nls, N_Vector, N_Vector zcor, N_Vector, double, sun
   double t = 0.0, gamma = 0.0;
   N_Vector zpred = nullptr, z = nullptr, fi = nullptr, sdata = nullptr;
   void* user_data = nullptr;
-  if (ARKStepGetNonlinearSystemData(arkode_mem, &t, &zpred, &z, &fi, &gamma, &sdata, &user_data) < 0)
+  if (ARKStepGetNonlinearSystemData(arkode_mem, &t, &zpred, &z, &fi, &gamma, &sdata, &user_data) <
+      0)
     return SUN_NLS_MEM_NULL;
-  N_VScale(1.0, zpred, z);                   // predictor, the initial guess
+  N_VScale(1.0, zpred, z);                     // predictor, the initial guess
   N_VLinearSum(1.0, zpred, 1.0, sdata, zcor);  // b, held in zcor for a moment
   ++c.stats->solves;
   try {
@@ -49,11 +56,21 @@ int free_solver(SUNNonlinearSolver nls) {
   return SUN_NLS_SUCCESS;
 }
 
-int accept_sys_fn(SUNNonlinearSolver, SUNNonlinSolSysFn) { return SUN_NLS_SUCCESS; }
-int accept_lsetup_fn(SUNNonlinearSolver, SUNNonlinSolLSetupFn) { return SUN_NLS_SUCCESS; }
-int accept_lsolve_fn(SUNNonlinearSolver, SUNNonlinSolLSolveFn) { return SUN_NLS_SUCCESS; }
-int accept_ctest_fn(SUNNonlinearSolver, SUNNonlinSolConvTestFn, void*) { return SUN_NLS_SUCCESS; }
-int accept_max_iters(SUNNonlinearSolver, int) { return SUN_NLS_SUCCESS; }
+int accept_sys_fn(SUNNonlinearSolver, SUNNonlinSolSysFn) {
+  return SUN_NLS_SUCCESS;
+}
+int accept_lsetup_fn(SUNNonlinearSolver, SUNNonlinSolLSetupFn) {
+  return SUN_NLS_SUCCESS;
+}
+int accept_lsolve_fn(SUNNonlinearSolver, SUNNonlinSolLSolveFn) {
+  return SUN_NLS_SUCCESS;
+}
+int accept_ctest_fn(SUNNonlinearSolver, SUNNonlinSolConvTestFn, void*) {
+  return SUN_NLS_SUCCESS;
+}
+int accept_max_iters(SUNNonlinearSolver, int) {
+  return SUN_NLS_SUCCESS;
+}
 int num_iters(SUNNonlinearSolver nls, long* n) {
   *n = content(nls).stats->last_iterations;
   return SUN_NLS_SUCCESS;

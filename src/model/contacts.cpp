@@ -9,8 +9,8 @@ namespace {
 
 // Uniform integer in [0, n) by rejection, so every value is equally likely.
 std::uint64_t uniform_below(std::mt19937_64& gen, std::uint64_t n) {
-  const std::uint64_t limit = std::numeric_limits<std::uint64_t>::max() -
-                              std::numeric_limits<std::uint64_t>::max() % n;
+  const std::uint64_t limit =
+      std::numeric_limits<std::uint64_t>::max() - std::numeric_limits<std::uint64_t>::max() % n;
   std::uint64_t x;
   do {
     x = gen();
@@ -19,7 +19,9 @@ std::uint64_t uniform_below(std::mt19937_64& gen, std::uint64_t n) {
 }
 
 // Uniform real in [0, 1) from the top 53 bits.
-double uniform_unit(std::mt19937_64& gen) { return static_cast<double>(gen() >> 11) * 0x1.0p-53; }
+double uniform_unit(std::mt19937_64& gen) {
+  return static_cast<double>(gen() >> 11) * 0x1.0p-53;
+}
 
 }  // namespace
 

@@ -53,7 +53,8 @@ System::System(const Case& c, std::vector<Contact> contacts)
   law_.shape = iface.shape;
   contact_force_scale_ = iface.epsilon * a_ * a_ * iface.shear_stress / mass_;
   // §7: F_N = ε θ P0 Nx Ny a² with θ = N_c/(Nx Ny).
-  normal_force_ = iface.epsilon * static_cast<double>(contacts_.size()) * iface.max_pressure * a_ * a_;
+  normal_force_ =
+      iface.epsilon * static_cast<double>(contacts_.size()) * iface.max_pressure * a_ * a_;
   mu_prefactor_ = iface.shear_stress / iface.max_pressure;
 
   x_next_.resize(nx_);
@@ -81,7 +82,9 @@ std::string System::describe_component(std::int64_t i) const {
          ", " + std::to_string(iy) + ", " + std::to_string(iz) + ")";
 }
 
-double System::coverage() const { return static_cast<double>(contacts_.size()) / (nx_ * ny_); }
+double System::coverage() const {
+  return static_cast<double>(contacts_.size()) / (nx_ * ny_);
+}
 
 void System::initial_state(InitialState initial, std::span<double> y) const {
   std::fill(y.begin(), y.end(), 0.0);
@@ -153,8 +156,8 @@ void System::add_lattice_accelerations(double t, std::span<const double> y,
 void System::add_contact_accelerations(std::span<const double> y, std::span<double> ydot) const {
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const std::int64_t wx = w_index(contact_node_[i], 0);
-    const auto a =
-        contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star, y[wx], y[wx + 1]);
+    const auto a = contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star,
+                                        y[wx], y[wx + 1]);
     ydot[wx] += a[0];
     ydot[wx + 1] += a[1];
   }
@@ -180,7 +183,8 @@ void System::rhs(double t, std::span<const double> y, std::span<double> ydot) co
 
 std::array<double, 4> System::contact_block(std::size_t i, std::span<const double> y) const {
   const std::int64_t wx = w_index(contact_node_[i], 0);
-  return contact_jacobian(law_, contact_force_scale_, eta_c_, contacts_[i].v_star, y[wx], y[wx + 1]);
+  return contact_jacobian(law_, contact_force_scale_, eta_c_, contacts_[i].v_star, y[wx],
+                          y[wx + 1]);
 }
 
 SparseJacobian System::jacobian_pattern(JacobianPart part) const {
@@ -227,7 +231,8 @@ SparseJacobian System::jacobian_pattern(JacobianPart part) const {
               const double sc[3] = {c.sx, c.sy, c.sz}, sd[3] = {d.sx, d.sy, d.sz};
               for (int k = 0; k < 3; ++k)
                 for (int l = 0; l < 3; ++l)
-                  t.emplace_back(w_index(nc, k), u_index(nd, l), -k2_over_m_ * 0.0625 * sc[k] * sd[l]);
+                  t.emplace_back(w_index(nc, k), u_index(nd, l),
+                                 -k2_over_m_ * 0.0625 * sc[k] * sd[l]);
             }
         }
     // Drive.
@@ -254,7 +259,8 @@ SparseJacobian System::jacobian_pattern(JacobianPart part) const {
   };
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const std::int64_t wx = w_index(contact_node_[i], 0);
-    jac.contact_slot.push_back({slot(wx, wx), slot(wx, wx + 1), slot(wx + 1, wx), slot(wx + 1, wx + 1)});
+    jac.contact_slot.push_back(
+        {slot(wx, wx), slot(wx, wx + 1), slot(wx + 1, wx), slot(wx + 1, wx + 1)});
   }
   return jac;
 }
@@ -294,7 +300,9 @@ long System::solve_implicit_stage(double gamma, std::span<const double> b,
     const double b_len = std::hypot(bx, by);
     if (b_len == 0.0) continue;
     const double v_star = contacts_[i].v_star;
-    auto g = [&](double lambda) { return lambda * damping + gs * law_.phi(lambda / v_star) - b_len; };
+    auto g = [&](double lambda) {
+      return lambda * damping + gs * law_.phi(lambda / v_star) - b_len;
+    };
     auto dg = [&](double lambda) { return damping + gs * law_.dphi(lambda / v_star) / v_star; };
 
     double hi = b_len / damping;
@@ -321,7 +329,8 @@ long System::solve_implicit_stage(double gamma, std::span<const double> b,
       converged = std::abs(next - lambda) <= 1e-15 * lambda || hi - lo <= 1e-15 * hi;
       lambda = next;
     }
-    if (!std::isfinite(lambda)) throw std::runtime_error("contact stage solve produced a non-finite speed");
+    if (!std::isfinite(lambda))
+      throw std::runtime_error("contact stage solve produced a non-finite speed");
     const double scale = lambda / b_len;
     z[wx] = bx * scale;
     z[wx + 1] = by * scale;
@@ -374,8 +383,8 @@ double System::contact_dissipation(std::span<const double> y) const {
   double sum = 0.0;
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const std::int64_t wx = w_index(contact_node_[i], 0);
-    const auto a =
-        contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star, y[wx], y[wx + 1]);
+    const auto a = contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star,
+                                        y[wx], y[wx + 1]);
     sum -= a[0] * y[wx] + a[1] * y[wx + 1];
   }
   return mass_ * sum;

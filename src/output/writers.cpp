@@ -15,12 +15,18 @@ void prepare_output_dir(const std::filesystem::path& dir, bool overwrite) {
     if (!overwrite)
       throw OutputError(dir.string() + ": holds results of an earlier run (" + name +
                         "); pass --overwrite to replace them or choose another --out");
+    if (!fs::is_regular_file(file, ec))
+      throw OutputError(file.string() + ": is not a regular file; refusing to replace it");
     fs::remove(file, ec);
+    if (ec) throw OutputError(file.string() + ": cannot remove: " + ec.message());
   }
   fs::create_directories(dir, ec);
   if (ec) throw OutputError(dir.string() + ": cannot create output directory: " + ec.message());
   const fs::path probe = dir / ".stickslip-write-test";
-  { std::ofstream test(probe); if (!test) throw OutputError(dir.string() + ": output directory is not writable"); }
+  {
+    std::ofstream test(probe);
+    if (!test) throw OutputError(dir.string() + ": output directory is not writable");
+  }
   fs::remove(probe, ec);
 }
 

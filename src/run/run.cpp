@@ -27,7 +27,8 @@ double seconds_since(Clock::time_point start) {
 // steps, elapsed and estimated remaining wall time, twice a second at most.
 class Progress {
  public:
-  Progress(bool enabled, double t_end) : enabled_(enabled && isatty(STDERR_FILENO)), t_end_(t_end) {}
+  Progress(bool enabled, double t_end)
+      : enabled_(enabled && isatty(STDERR_FILENO)), t_end_(t_end) {}
   void update(double t, long steps) {
     if (!enabled_) return;
     const double elapsed = seconds_since(start_);

@@ -4,10 +4,10 @@
 // decouple into one scalar equation per contact, so no Jacobian, matrix or
 // linear solver is needed at all.
 
+#include <sundials/sundials_nonlinearsolver.h>
+
 #include <memory>
 #include <type_traits>
-
-#include <sundials/sundials_nonlinearsolver.h>
 
 #include "stickslip/model/system.hpp"
 

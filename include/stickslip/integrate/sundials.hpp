@@ -2,16 +2,16 @@
 // RAII ownership of SUNDIALS objects and the one exception boundary every
 // C callback goes through. Nothing here knows about the physics.
 
+#include <nvector/nvector_serial.h>
+#include <sundials/sundials_context.h>
+#include <sundials/sundials_linearsolver.h>
+#include <sundials/sundials_matrix.h>
+
 #include <exception>
 #include <memory>
 #include <span>
 #include <stdexcept>
 #include <string>
-
-#include <nvector/nvector_serial.h>
-#include <sundials/sundials_context.h>
-#include <sundials/sundials_linearsolver.h>
-#include <sundials/sundials_matrix.h>
 
 namespace stickslip {
 
@@ -49,7 +49,8 @@ struct LinearSolverDeleter {
 };
 using NVectorPtr = std::unique_ptr<std::remove_pointer_t<N_Vector>, NVectorDeleter>;
 using MatrixPtr = std::unique_ptr<std::remove_pointer_t<SUNMatrix>, MatrixDeleter>;
-using LinearSolverPtr = std::unique_ptr<std::remove_pointer_t<SUNLinearSolver>, LinearSolverDeleter>;
+using LinearSolverPtr =
+    std::unique_ptr<std::remove_pointer_t<SUNLinearSolver>, LinearSolverDeleter>;
 
 NVectorPtr make_serial_vector(std::span<const double> values, SUNContext ctx);
 

@@ -61,7 +61,9 @@ class System {
   int nz() const { return nz_; }
   std::int64_t num_nodes() const { return n_; }
   std::int64_t size() const { return 6 * n_ + kQuadratures; }
-  std::int64_t node(int ix, int iy, int iz) const { return ix + nx_ * (iy + std::int64_t{ny_} * iz); }
+  std::int64_t node(int ix, int iy, int iz) const {
+    return ix + nx_ * (iy + std::int64_t{ny_} * iz);
+  }
   std::int64_t u_index(std::int64_t node, int k) const { return 3 * node + k; }
   std::int64_t w_index(std::int64_t node, int k) const { return 3 * n_ + 3 * node + k; }
   std::int64_t quadrature_index(Quadrature q) const { return 6 * n_ + q; }
@@ -100,8 +102,8 @@ class System {
 
   // Observables.
   double friction_force(double t, std::span<const double> y) const;  // F_f of §5 [N]
-  double normal_force() const { return normal_force_; }               // F_N of §7 [N]
-  double coverage() const;                                            // θ realized
+  double normal_force() const { return normal_force_; }              // F_N of §7 [N]
+  double coverage() const;                                           // θ realized
   EnergyTerms energy(double t, std::span<const double> y) const;
   double power_in(double t, std::span<const double> y) const;
   double dissipation(std::span<const double> y) const;
@@ -134,7 +136,7 @@ class System {
   double v_;                                  // drive velocity [m/s]
   double contact_force_scale_;                // ε f0 / m [m/s²]
   double normal_force_;
-  double mu_prefactor_;                       // τ_f / P0
+  double mu_prefactor_;  // τ_f / P0
   FrictionLaw law_;
   std::vector<Contact> contacts_;
   std::vector<std::int64_t> contact_node_;
