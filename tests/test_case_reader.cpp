@@ -34,7 +34,7 @@ TEST_CASE("an empty case file gives the defaults", "[case]") {
   CHECK(c.run.initial == InitialState::rest);
   CHECK(c.solver.max_steps == d.solver.max_steps);
   CHECK(c.output.dir.empty());
-  CHECK(c.output.traces == TraceSelection::none);
+  CHECK(c.output.traces == ContactSelection::none);
 }
 
 TEST_CASE("every key is read into its field", "[case]") {
@@ -109,7 +109,7 @@ traces = "all"
   CHECK(c.solver.max_steps == 1000);
   CHECK(c.output.dir == std::filesystem::path("cases/out/x"));  // relative to the case file
   CHECK(c.output.interval == 2e-6);
-  CHECK(c.output.traces == TraceSelection::all);
+  CHECK(c.output.traces == ContactSelection::all);
 }
 
 TEST_CASE("output.dir: absolute paths are kept", "[case]") {
@@ -284,9 +284,9 @@ TEST_CASE("bad explicit contacts", "[case]") {
 }
 
 TEST_CASE("trace selection", "[case]") {
-  CHECK(parse("[output]\ntraces = \"none\"").output.traces == TraceSelection::none);
+  CHECK(parse("[output]\ntraces = \"none\"").output.traces == ContactSelection::none);
   const Case c = parse("[lattice]\nnx = 10\nny = 10\n[output]\ntraces = [0, 9, 3]");  // 10 contacts
-  CHECK(c.output.traces == TraceSelection::list);
+  CHECK(c.output.traces == ContactSelection::list);
   CHECK(c.output.trace_ids == std::vector<int>{0, 9, 3});
 
   REQUIRE_THROWS_WITH(parse("[lattice]\nnx = 10\nny = 10\n[output]\ntraces = [0,\n 10]\n"),

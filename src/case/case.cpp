@@ -28,6 +28,14 @@ const char* to_string(Method m) {
   switch (m) {
     case Method::imex:
       return "imex";
+    case Method::dirk:
+      return "dirk";
+    case Method::bdf:
+      return "bdf";
+    case Method::erk:
+      return "erk";
+    case Method::rk4:
+      return "rk4";
   }
   return "?";
 }
@@ -39,9 +47,12 @@ nlohmann::json to_json(const Case& c) {
   json contacts = json::array();
   for (const auto& k : c.interface.contacts)
     contacts.push_back({{"site", json::array({k.ix, k.iy})}, {"v_star", k.v_star}});
-  json traces = c.output.traces == TraceSelection::all    ? json("all")
-                : c.output.traces == TraceSelection::none ? json("none")
-                                                          : json(c.output.trace_ids);
+  auto selection = [](ContactSelection which, const std::vector<int>& ids) {
+    return which == ContactSelection::all    ? json("all")
+           : which == ContactSelection::none ? json("none")
+                                             : json(ids);
+  };
+  json traces = selection(c.output.traces, c.output.trace_ids);
   const auto& l = c.lattice;
   const auto& m = c.material;
   const auto& i = c.interface;
@@ -73,12 +84,18 @@ nlohmann::json to_json(const Case& c) {
         {"initial", to_string(c.run.initial)}}},
       {"solver",
        {{"method", to_string(s.method)},
+        {"order", s.order},
+        {"step", s.step},
         {"rtol", s.rtol},
         {"atol_displacement", s.atol_displacement},
         {"atol_velocity", s.atol_velocity},
         {"max_steps", s.max_steps}}},
       {"output",
-       {{"dir", c.output.dir.string()}, {"interval", c.output.interval}, {"traces", traces}}},
+       {{"dir", c.output.dir.string()},
+        {"interval", c.output.interval},
+        {"traces", traces},
+        {"events", selection(c.output.events, c.output.event_ids)},
+        {"steps", c.output.steps}}},
   };
 }
 

@@ -97,7 +97,8 @@ bool from_override(const toml::node& n) {
 struct Reader {
   std::string source;
   std::map<std::string, const toml::node*, std::less<>> given;  // "section.key" -> its value
-  std::vector<const toml::node*> contact_sites, trace_ids;      // parallel to the Case's lists
+  std::vector<const toml::node*> contact_sites, trace_ids,
+      event_ids;  // parallel to the Case's lists
 
   [[noreturn]] void fail(const toml::node& at, std::string_view key, std::string_view what) const {
     const auto& src = at.source();
@@ -250,31 +251,44 @@ void read_contacts(Reader& r, const toml::node& n, const std::string& key, Case&
   }
 }
 
-void read_traces(Reader& r, const toml::node& n, const std::string& key, Case& c) {
-  auto& out = c.output;
-  out.trace_ids.clear();
-  r.trace_ids.clear();
-  if (auto* s = n.as_string(); s && (s->get() == "all" || s->get() == "none")) {
-    out.traces = s->get() == "all" ? TraceSelection::all : TraceSelection::none;
-    return;
-  }
-  const auto* ids = n.as_array();
-  if (!ids) {
-    std::string got = n.is_string() ? "\"" + printable(n.as_string()->get()) + "\"" : type_name(n);
-    r.fail(n, key, "must be \"all\", \"none\" or an array of contact ids, got " + got);
-  }
-  out.traces = TraceSelection::list;
-  for (std::size_t i = 0; i < ids->size(); ++i) {
-    const std::string name = key + "[" + std::to_string(i) + "]";
-    int id = r.index(*ids->get(i), name);
-    if (auto it = std::find(out.trace_ids.begin(), out.trace_ids.end(), id);
-        it != out.trace_ids.end())
-      r.fail(*ids->get(i), name,
-             "contact " + std::to_string(id) + " repeats " + key + "[" +
-                 std::to_string(it - out.trace_ids.begin()) + "]");
-    out.trace_ids.push_back(id);
-    r.trace_ids.push_back(ids->get(i));
-  }
+// "all", "none" or a list of distinct contact ids, for traces and for events.
+Apply contact_selection(ContactSelection OutputParams::*which, std::vector<int> OutputParams::*ids,
+                        std::vector<const toml::node*> Reader::*nodes) {
+  return [=](Reader& r, const toml::node& n, const std::string& key, Case& c) {
+    auto& out = c.output;
+    auto& list = out.*ids;
+    list.clear();
+    (r.*nodes).clear();
+    if (auto* s = n.as_string(); s && (s->get() == "all" || s->get() == "none")) {
+      out.*which = s->get() == "all" ? ContactSelection::all : ContactSelection::none;
+      return;
+    }
+    const auto* array = n.as_array();
+    if (!array) {
+      std::string got =
+          n.is_string() ? "\"" + printable(n.as_string()->get()) + "\"" : type_name(n);
+      r.fail(n, key, "must be \"all\", \"none\" or an array of contact ids, got " + got);
+    }
+    out.*which = ContactSelection::list;
+    for (std::size_t i = 0; i < array->size(); ++i) {
+      const std::string name = key + "[" + std::to_string(i) + "]";
+      int id = r.index(*array->get(i), name);
+      if (auto it = std::find(list.begin(), list.end(), id); it != list.end())
+        r.fail(*array->get(i), name,
+               "contact " + std::to_string(id) + " repeats " + key + "[" +
+                   std::to_string(it - list.begin()) + "]");
+      list.push_back(id);
+      (r.*nodes).push_back(array->get(i));
+    }
+  };
+}
+
+Apply boolean(bool OutputParams::*m) {
+  return [=](Reader& r, const toml::node& n, const std::string& key, Case& c) {
+    const auto* b = n.as_boolean();
+    if (!b) r.fail(n, key, "expected true or false, got " + type_name(n));
+    c.output.*m = b->get();
+  };
 }
 
 const std::vector<Entry>& schema() {
@@ -321,7 +335,12 @@ const std::vector<Entry>& schema() {
       {"run", "initial", "rest or sliding",
        choice(&Case::run, &RunParams::initial, InitialState::rest, InitialState::sliding)},
       {"solver", "method", "time integrator",
-       choice(&Case::solver, &SolverParams::method, Method::imex)},
+       choice(&Case::solver, &SolverParams::method, Method::imex, Method::dirk, Method::bdf,
+              Method::erk, Method::rk4)},
+      {"solver", "order", "method order (0: the method's default)",
+       integer(&Case::solver, &SolverParams::order, 0)},
+      {"solver", "step", "fixed step [s] (0: adaptive)",
+       real(&Case::solver, &SolverParams::step, kNonNegative)},
       {"solver", "rtol", "relative tolerance", real(&Case::solver, &SolverParams::rtol, kPositive)},
       {"solver", "atol_displacement", "[m]",
        real(&Case::solver, &SolverParams::atol_displacement, kPositive)},
@@ -332,7 +351,11 @@ const std::vector<Entry>& schema() {
       {"output", "dir", "relative to the case file", read_dir},
       {"output", "interval", "[s] between output rows",
        real(&Case::output, &OutputParams::interval, kPositive)},
-      {"output", "traces", "\"all\", \"none\" or [contact ids]", read_traces},
+      {"output", "traces", "\"all\", \"none\" or [contact ids]",
+       contact_selection(&OutputParams::traces, &OutputParams::trace_ids, &Reader::trace_ids)},
+      {"output", "events", "\"all\", \"none\" or [contact ids] whose stick/slip is located",
+       contact_selection(&OutputParams::events, &OutputParams::event_ids, &Reader::event_ids)},
+      {"output", "steps", "write steps.csv (every accepted step)", boolean(&OutputParams::steps)},
   };
   return entries;
 }
@@ -462,18 +485,39 @@ void check_consistency(const Reader& r, const Case& c) {
   }
 
   const long long n = contact_count(c);
-  for (std::size_t i = 0; i < c.output.trace_ids.size(); ++i)
-    if (c.output.trace_ids[i] >= n)
-      r.fail(*r.trace_ids[i], "output.traces[" + std::to_string(i) + "]",
-             "must be a contact id in [0, " + std::to_string(n) + "), got " +
-                 std::to_string(c.output.trace_ids[i]));
+  auto check_ids = [&](const std::vector<int>& ids, const std::vector<const toml::node*>& nodes,
+                       const std::string& key) {
+    for (std::size_t i = 0; i < ids.size(); ++i)
+      if (ids[i] >= n)
+        r.fail(*nodes[i], key + "[" + std::to_string(i) + "]",
+               "must be a contact id in [0, " + std::to_string(n) + "), got " +
+                   std::to_string(ids[i]));
+  };
+  check_ids(c.output.trace_ids, r.trace_ids, "output.traces");
+  check_ids(c.output.event_ids, r.event_ids, "output.events");
+
+  const auto& s = c.solver;
+  if (s.method == Method::rk4 && !(s.step > 0))
+    r.fail_first({{"solver.step", "must be > 0 with method = \"rk4\" (a fixed-step method)"},
+                  {"solver.method", "\"rk4\" is fixed-step: it needs [solver] step > 0"}});
+  if (s.method == Method::bdf && s.step > 0)
+    r.fail_first({{"solver.step", "must be 0 with method = \"bdf\" (CVODE has no fixed step)"},
+                  {"solver.method", "\"bdf\" is adaptive only: leave [solver] step out"}});
+  // Orders SUNDIALS offers: ARKStep IMEX 2–5, DIRK 2–5, ERK 2–8; CVODE BDF 1–5; rk4 is 4.
+  const int max_order = s.method == Method::erk ? 8 : s.method == Method::rk4 ? 4 : 5;
+  const int min_order = s.method == Method::bdf ? 1 : s.method == Method::rk4 ? 4 : 2;
+  if (s.order != 0 && (s.order < min_order || s.order > max_order))
+    r.fail_first({{"solver.order", "must be 0 (default) or in [" + std::to_string(min_order) +
+                                       ", " + std::to_string(max_order) + "] for method = \"" +
+                                       to_string(s.method) + "\", got " + std::to_string(s.order)},
+                  {"solver.method", "does not offer order " + std::to_string(s.order)}});
 }
 
 }  // namespace
 
 Case parse_case(std::string_view toml_text, const std::filesystem::path& source,
                 const std::vector<std::string>& overrides) {
-  Reader r{printable(source.string()), {}, {}, {}};
+  Reader r{printable(source.string()), {}, {}, {}, {}};
   toml::table root;
   try {
     root = toml::parse(toml_text, std::string_view(source.native()));

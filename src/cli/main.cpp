@@ -1,11 +1,14 @@
 // stickslip: parse → build → integrate → write. Exit codes: 0 success,
 // 1 the integration failed, 2 bad input (case file, options, output directory).
+// `stickslip compare`: 0 within tolerance, 1 beyond it, 2 bad input
+// (stickslip/analysis/compare.hpp).
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <iostream>
 #include <string>
 #include <vector>
 
+#include "stickslip/analysis/compare.hpp"
 #include "stickslip/case/reader.hpp"
 #include "stickslip/integrate/sundials.hpp"
 #include "stickslip/output/writers.hpp"
@@ -59,6 +62,14 @@ int main(int argc, char** argv) {
   run->add_flag("--overwrite", overwrite,
                 "replace the results of an earlier run in the output directory");
   run->add_flag("--quiet", quiet, "no progress on stderr");
+  std::string dir_a, dir_b, compare_out;
+  double rtol = 1e-2;
+  CLI::App* compare = app.add_subcommand(
+      "compare", "compare two runs' outputs (A is the reference); exit 1 if beyond tolerance");
+  compare->add_option("dir_a", dir_a, "output directory of run A (the reference)")->required();
+  compare->add_option("dir_b", dir_b, "output directory of run B")->required();
+  compare->add_option("--rtol", rtol, "relative tolerance (default 1e-2)");
+  compare->add_option("--out", compare_out, "JSON report (default DIR_B/compare.json)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -68,5 +79,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (*run) return run_command(case_file, out, sets, overwrite, quiet);
+  if (*compare)
+    return stickslip::compare_command(dir_a, dir_b, rtol, compare_out, std::cout, std::cerr);
   return 2;
 }

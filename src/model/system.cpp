@@ -56,6 +56,7 @@ System::System(const Case& c, std::vector<Contact> contacts)
   normal_force_ =
       iface.epsilon * static_cast<double>(contacts_.size()) * iface.max_pressure * a_ * a_;
   mu_prefactor_ = iface.shear_stress / iface.max_pressure;
+  slip_threshold_ = iface.slip_threshold;
 
   x_next_.resize(nx_);
   y_next_.resize(ny_);
@@ -452,6 +453,27 @@ double System::energy_residual(double t, std::span<const double> y,
 std::array<double, 2> System::contact_velocity(std::size_t i, std::span<const double> y) const {
   const std::int64_t wx = w_index(contact_node_[i], 0);
   return {y[wx], y[wx + 1]};
+}
+
+void System::stick_slip_roots(std::span<const double> y, std::span<const int> watched,
+                              std::span<double> g) const {
+  for (std::size_t k = 0; k < watched.size(); ++k) {
+    const auto i = static_cast<std::size_t>(watched[k]);
+    const std::int64_t wx = w_index(contact_node_[i], 0);
+    g[k] = std::hypot(y[wx], y[wx + 1]) - slip_threshold_ * contacts_[i].v_star;
+  }
+}
+
+bool System::slipping(std::size_t i, std::span<const double> y) const {
+  const std::int64_t wx = w_index(contact_node_[i], 0);
+  return std::hypot(y[wx], y[wx + 1]) > slip_threshold_ * contacts_[i].v_star;
+}
+
+double System::contact_force(std::size_t i, std::span<const double> y) const {
+  const std::int64_t wx = w_index(contact_node_[i], 0);
+  const auto a = contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star,
+                                      y[wx], y[wx + 1]);
+  return mass_ * std::hypot(a[0], a[1]);
 }
 
 double System::steady_sliding_mu() const {

@@ -3,12 +3,15 @@
 #include <sundials/sundials_config.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <memory>
 #include <optional>
 
+#include "stickslip/analysis/events.hpp"
+#include "stickslip/integrate/sundials.hpp"
 #include "stickslip/model/contacts.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/output/writers.hpp"
@@ -18,6 +21,9 @@ namespace stickslip {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// A fixed-step run whose energy audit is off by this much has blown up.
+constexpr double kDivergedResidual = 0.5;
 
 double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
@@ -52,26 +58,24 @@ class Progress {
   bool shown_ = false;
 };
 
-std::vector<int> traced_contacts(const OutputParams& out, std::size_t contacts) {
-  std::vector<int> ids;
-  if (out.traces == TraceSelection::all)
-    for (std::size_t i = 0; i < contacts; ++i) ids.push_back(static_cast<int>(i));
-  else if (out.traces == TraceSelection::list)
-    ids = out.trace_ids;
-  return ids;
+std::vector<int> selected(ContactSelection which, const std::vector<int>& ids,
+                          std::size_t contacts) {
+  if (which == ContactSelection::list) return ids;
+  std::vector<int> all;
+  if (which == ContactSelection::all)
+    for (std::size_t i = 0; i < contacts; ++i) all.push_back(static_cast<int>(i));
+  return all;
 }
 
-nlohmann::json stats_json(const SolverStats& s) {
-  return {{"steps", s.steps},
-          {"step_attempts", s.step_attempts},
-          {"rhs_explicit", s.rhs_explicit},
-          {"rhs_implicit", s.rhs_implicit},
-          {"newton_iterations", s.newton_iterations},
-          {"newton_convergence_failures", s.newton_convergence_failures},
-          {"linear_setups", s.linear_setups},
-          {"jacobian_evaluations", s.jacobian_evaluations},
-          {"error_test_failures", s.error_test_failures},
-          {"last_step", s.last_step}};
+// Elastic travel time between two bottom sites at the transverse sound speed,
+// over the shortest periodic separation: the default coincidence window.
+double travel_time(const System& s, const Contact& a, const Contact& b) {
+  auto wrap = [](int d, int n) {
+    d = std::abs(d) % n;
+    return std::min(d, n - d);
+  };
+  const double dx = wrap(a.ix - b.ix, s.nx()), dy = wrap(a.iy - b.iy, s.ny());
+  return std::hypot(dx, dy) * s.spacing() / std::sqrt(s.g1());
 }
 
 }  // namespace
@@ -98,9 +102,11 @@ RunResult run_case(const Case& c, const RunOptions& options) {
       out << line;
     }
   }
+  // Only what the case asks for is recorded: traces, events, steps.
   CsvWriter friction(options.out_dir / "friction.csv", {"t", "F_f", "mu_inst"});
-  const auto traced = traced_contacts(c.output, contacts.size());
-  std::optional<CsvWriter> traces;
+  const auto traced = selected(c.output.traces, c.output.trace_ids, contacts.size());
+  const auto watched = selected(c.output.events, c.output.event_ids, contacts.size());
+  std::optional<CsvWriter> traces, events_csv, steps_csv;
   if (!traced.empty()) {
     std::vector<std::string> header{"t"};
     for (int id : traced) {
@@ -109,11 +115,59 @@ RunResult run_case(const Case& c, const RunOptions& options) {
     }
     traces.emplace(options.out_dir / "traces.csv", header);
   }
+  if (!watched.empty())
+    events_csv.emplace(options.out_dir / "events.csv",
+                       std::vector<std::string>{"t", "contact", "kind", "speed", "force"});
+  IntegratorOptions integrator_options;
+  integrator_options.watched_contacts = watched;
+  if (c.output.steps) {
+    steps_csv.emplace(options.out_dir / "steps.csv", std::vector<std::string>{"t", "h", "error"});
+    integrator_options.on_step = [&](const StepRecord& r) {
+      const double row[2] = {r.h, r.error};
+      steps_csv->row(r.t, row);
+    };
+  }
+
+  // The pair whose synchronization is reported: the only two contacts, or the
+  // only two watched ones. Their x-velocities are kept in memory only if traced.
+  std::optional<std::pair<int, int>> pair;
+  if (watched.size() == 2) pair = {watched[0], watched[1]};
+  std::vector<double> pair_t, pair_va, pair_vb;
+  const bool pair_traced = pair &&
+                           std::find(traced.begin(), traced.end(), pair->first) != traced.end() &&
+                           std::find(traced.begin(), traced.end(), pair->second) != traced.end();
 
   std::vector<double> y0(static_cast<std::size_t>(system.size()));
   system.initial_state(c.run.initial, y0);
   std::vector<double> y = y0;
-  ArkodeIntegrator integrator(system, c.solver, y0, c.run.t_end);
+  auto integrator = make_integrator(system, c.solver, y0, c.run.t_end, integrator_options);
+
+  std::vector<bool> slipping_at_start(contacts.size());
+  for (std::size_t i = 0; i < contacts.size(); ++i) slipping_at_start[i] = system.slipping(i, y0);
+  std::vector<Event> events;
+  char line[160];
+  auto record_events = [&](double t) {
+    const auto roots = integrator->roots();
+    for (std::size_t k = 0; k < roots.size(); ++k) {
+      if (roots[k] == 0) continue;
+      const auto id = static_cast<std::size_t>(watched[k]);
+      const auto v = system.contact_velocity(id, y);
+      Event e{t, watched[k], roots[k] > 0 ? EventKind::slip : EventKind::stick,
+              std::hypot(v[0], v[1]), system.contact_force(id, y)};
+      events.push_back(e);
+      std::snprintf(line, sizeof line, "%.15g,%d,%s,%.10g,%.10g", e.t, e.contact,
+                    e.kind == EventKind::slip ? "slip" : "stick", e.speed, e.force);
+      events_csv->line(line);
+    }
+  };
+  // Integrates to `target`, stopping at every stick/slip transition on the way.
+  auto advance_to = [&](double target) {
+    for (;;) {
+      const double t = integrator->advance(target, y);
+      if (!watched.empty()) record_events(t);
+      if (t >= target) return;
+    }
+  };
 
   const double normal_force = system.normal_force();
   std::vector<double> trace_row(2 * traced.size());
@@ -129,6 +183,38 @@ RunResult run_case(const Case& c, const RunOptions& options) {
       }
       traces->row(t, trace_row);
     }
+    if (pair_traced) {
+      pair_t.push_back(t);
+      pair_va.push_back(system.contact_velocity(static_cast<std::size_t>(pair->first), y)[0]);
+      pair_vb.push_back(system.contact_velocity(static_cast<std::size_t>(pair->second), y)[0]);
+    }
+  };
+  // A run that goes wrong stops here, keeping every row written so far; its
+  // μ is never reported. Fixed-step runs can blow up without any error test,
+  // so for them the energy audit is watched too.
+  auto check_health = [&](double t) {
+    for (double v : y)
+      if (!std::isfinite(v)) {
+        char msg[160];
+        std::snprintf(msg, sizeof msg, "non-finite state at t = %.9g s (%s)", t,
+                      c.solver.step > 0 ? "the fixed step is too large" : "the solution diverged");
+        throw IntegrationError(msg);
+      }
+    const long steps = integrator->stats().steps;
+    if (steps > c.solver.max_steps)
+      throw IntegrationError("stopped at t = " + std::to_string(t) + " s after " +
+                             std::to_string(steps) + " steps: more than [solver] max_steps");
+    if (c.solver.step > 0 && t >= 10 * c.output.interval) {
+      const double residual = system.energy_residual(t, y, y0);
+      if (!(std::abs(residual) < kDivergedResidual)) {
+        char msg[200];
+        std::snprintf(msg, sizeof msg,
+                      "energy audit diverged at t = %.9g s (relative residual %.3g): the fixed "
+                      "step %.3g s is too large",
+                      t, residual, c.solver.step);
+        throw IntegrationError(msg);
+      }
+    }
   };
 
   record(0.0);
@@ -137,19 +223,26 @@ RunResult run_case(const Case& c, const RunOptions& options) {
   const long outputs = static_cast<long>(std::ceil(t_end / dt - 1e-9));
   double impulse_at_avg = t_avg == 0.0 ? 0.0 : std::nan("");
   const std::int64_t impulse = system.quadrature_index(System::friction_impulse);
-  for (long k = 1; k <= outputs; ++k) {
-    const double t_out = std::min(t_end, static_cast<double>(k) * dt);
-    if (std::isnan(impulse_at_avg) && t_avg <= t_out) {
-      // μ averages from t_avg exactly: stop there (interpolated, like every output).
-      integrator.advance_to(t_avg, y);
-      impulse_at_avg = y[impulse];
+  try {
+    for (long k = 1; k <= outputs; ++k) {
+      const double t_out = std::min(t_end, static_cast<double>(k) * dt);
+      if (std::isnan(impulse_at_avg) && t_avg <= t_out) {
+        // μ averages from t_avg exactly: stop there (interpolated, like every output).
+        advance_to(t_avg);
+        impulse_at_avg = y[impulse];
+      }
+      advance_to(t_out);
+      record(t_out);
+      check_health(t_out);
+      progress.update(t_out, integrator->stats().steps);
     }
-    integrator.advance_to(t_out, y);
-    record(t_out);
-    progress.update(t_out, integrator.stats().steps);
+  } catch (...) {
+    friction.flush();
+    if (traces) traces->flush();
+    if (events_csv) events_csv->flush();
+    if (steps_csv) steps_csv->flush();
+    throw;
   }
-  friction.flush();
-  if (traces) traces->flush();
 
   RunResult result;
   result.contacts = contacts.size();
@@ -157,7 +250,7 @@ RunResult run_case(const Case& c, const RunOptions& options) {
   result.normal_force = normal_force;
   result.mu = (y[impulse] - impulse_at_avg) / ((t_end - t_avg) * normal_force);
   result.energy_residual = system.energy_residual(t_end, y, y0);
-  result.stats = integrator.stats();
+  result.stats = integrator->stats();
   result.wall_seconds = seconds_since(wall_start);
 
   nlohmann::json summary = {
@@ -170,15 +263,26 @@ RunResult run_case(const Case& c, const RunOptions& options) {
       {"wall_seconds", result.wall_seconds},
       {"energy_residual", result.energy_residual},
       {"steady_sliding_mu", system.steady_sliding_mu()},
-      {"method", integrator.method_name()},
-      {"tolerances",
-       {{"rtol", c.solver.rtol},
-        {"atol_displacement", c.solver.atol_displacement},
-        {"atol_velocity", c.solver.atol_velocity}}},
-      {"solver_stats", stats_json(result.stats)},
+      {"solver", integrator->description()},
+      {"solver_stats", to_json(result.stats)},
       {"provenance", {{"git_commit", kGitCommit}, {"sundials_version", SUNDIALS_VERSION}}},
       {"case", to_json(c)},
   };
+  if (!watched.empty()) {
+    nlohmann::json per_contact = nlohmann::json::array();
+    for (int id : watched)
+      per_contact.push_back(to_json(contact_statistics(
+          events, id, slipping_at_start[static_cast<std::size_t>(id)], t_avg, t_end)));
+    summary["events"] = {
+        {"count", events.size()}, {"window", {t_avg, t_end}}, {"per_contact", per_contact}};
+  }
+  if (pair) {
+    const double window = travel_time(system, contacts[static_cast<std::size_t>(pair->first)],
+                                      contacts[static_cast<std::size_t>(pair->second)]);
+    // Only the averaging window is correlated: the start from rest is a transient.
+    summary["synchronization"] = to_json(synchronization(events, pair->first, pair->second, window,
+                                                         t_avg, t_end, pair_t, pair_va, pair_vb));
+  }
   write_json_atomically(options.out_dir / "summary.json", summary);
   return result;
 }

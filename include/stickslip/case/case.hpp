@@ -13,8 +13,11 @@ namespace stickslip {
 
 enum class GradDiv { paper, navier };       // G2 = (1+2ν) G1 (paper) or G1/(1−2ν) (Navier)
 enum class InitialState { rest, sliding };  // u = w = 0, or w^x = v everywhere
-enum class Method { imex };
-enum class TraceSelection { all, none, list };
+// imex: ARKStep additive RK, contacts implicit (exact per-contact stage solve);
+// dirk: ARKStep fully implicit with KLU; bdf: CVODE with KLU; erk: ARKStep
+// explicit; rk4: the classic fourth-order Runge–Kutta at a fixed step.
+enum class Method { imex, dirk, bdf, erk, rk4 };
+enum class ContactSelection { all, none, list };  // which contacts an output covers
 
 struct LatticeParams {
   int nx = 15;
@@ -68,6 +71,8 @@ struct RunParams {
 
 struct SolverParams {
   Method method = Method::imex;
+  int order = 0;      // 0: the method's default (bdf: 2, see MODEL.md §12)
+  double step = 0.0;  // > 0: fixed step [s], adaptivity off (ARKStep methods and rk4)
   double rtol = 1e-6;
   double atol_displacement = 1e-12;  // [m]
   double atol_velocity = 1e-7;       // [m/s]: 1e-4 of the paper's drive speed
@@ -77,8 +82,11 @@ struct SolverParams {
 struct OutputParams {
   std::filesystem::path dir;  // empty: out/<case file stem> in the working directory
   double interval = 1e-6;     // [s] between rows of friction.csv and traces.csv
-  TraceSelection traces = TraceSelection::none;
-  std::vector<int> trace_ids;  // when traces == list
+  ContactSelection traces = ContactSelection::none;
+  std::vector<int> trace_ids;                       // when traces == list
+  ContactSelection events = ContactSelection::all;  // whose stick/slip transitions are located
+  std::vector<int> event_ids;                       // when events == list
+  bool steps = false;                               // write steps.csv
 };
 
 struct Case {

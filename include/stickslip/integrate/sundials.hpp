@@ -54,6 +54,14 @@ using LinearSolverPtr =
 
 NVectorPtr make_serial_vector(std::span<const double> values, SUNContext ctx);
 
+// Copies a SparseJacobian (pattern and values) into a CSR SUNSparseMatrix.
+// The pattern goes too: ARKODE and CVODE zero the whole matrix, index arrays
+// included, before asking for a new Jacobian.
+struct SparseJacobian;
+void copy_into(const SparseJacobian& jac, SUNMatrix m);
+// A CSR SUNSparseMatrix shaped for `jac`.
+MatrixPtr make_sparse_matrix(const SparseJacobian& jac, SUNContext ctx);
+
 inline std::span<double> as_span(N_Vector v) {
   return {N_VGetArrayPointer_Serial(v), static_cast<std::size_t>(N_VGetLength_Serial(v))};
 }

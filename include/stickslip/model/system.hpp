@@ -112,6 +112,13 @@ class System {
   double energy_residual(double t, std::span<const double> y, std::span<const double> y0) const;
   std::array<double, 2> contact_velocity(std::size_t i, std::span<const double> y) const;
 
+  // Stick/slip root functions (MODEL.md §9): g_k = |s_c| − κ v*_c for each
+  // watched contact c = watched[k]; positive while it slips.
+  void stick_slip_roots(std::span<const double> y, std::span<const int> watched,
+                        std::span<double> g) const;
+  bool slipping(std::size_t i, std::span<const double> y) const;
+  double contact_force(std::size_t i, std::span<const double> y) const;  // |F_contact| [N]
+
   // Exact μ of steady sliding at the drive velocity (§7).
   double steady_sliding_mu() const;
 
@@ -136,7 +143,8 @@ class System {
   double v_;                                  // drive velocity [m/s]
   double contact_force_scale_;                // ε f0 / m [m/s²]
   double normal_force_;
-  double mu_prefactor_;  // τ_f / P0
+  double mu_prefactor_;    // τ_f / P0
+  double slip_threshold_;  // κ
   FrictionLaw law_;
   std::vector<Contact> contacts_;
   std::vector<std::int64_t> contact_node_;

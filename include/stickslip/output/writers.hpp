@@ -11,6 +11,7 @@
 #include <span>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace stickslip {
@@ -24,7 +25,7 @@ class OutputError : public std::runtime_error {
 
 // The files a run writes; a directory holding any of them holds results.
 inline constexpr const char* kOutputFiles[] = {"summary.json", "friction.csv", "contacts.csv",
-                                               "traces.csv"};
+                                               "traces.csv",   "events.csv",   "steps.csv"};
 
 // Creates `dir` if needed. Refuses (OutputError) when it already holds results
 // and `overwrite` is false; with `overwrite`, removes only those result files.
@@ -35,6 +36,7 @@ class CsvWriter {
   CsvWriter(const std::filesystem::path& file, const std::vector<std::string>& header);
   // One row: values printed with 10 significant digits (times with 12).
   void row(double t, std::span<const double> values);
+  void line(std::string_view text) { out_ << text << '\n'; }
   void flush() { out_.flush(); }
 
  private:

@@ -5,7 +5,7 @@
 #include <filesystem>
 
 #include "stickslip/case/case.hpp"
-#include "stickslip/integrate/arkode_integrator.hpp"
+#include "stickslip/integrate/integrator.hpp"
 
 namespace stickslip {
 

@@ -1,0 +1,69 @@
+#pragma once
+// The integrators a case can choose ([solver] method), behind one interface.
+// Each adapter owns its SUNDIALS handles; the physics is the System's.
+
+#include <functional>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <span>
+#include <vector>
+
+#include "stickslip/case/case.hpp"
+#include "stickslip/model/system.hpp"
+
+namespace stickslip {
+
+struct SolverStats {
+  long steps = 0;
+  long step_attempts = 0;
+  long rhs_explicit = 0;       // evaluations of the explicit part (erk, rk4, imex)
+  long rhs_implicit = 0;       // evaluations of the implicit part (imex, dirk, bdf)
+  long newton_iterations = 0;  // imex: scalar iterations of the per-contact stage solves
+  long convergence_failures = 0;
+  long linear_setups = 0;
+  long jacobian_evaluations = 0;
+  long error_test_failures = 0;
+  long root_evaluations = 0;
+  double last_step = 0.0;
+};
+
+nlohmann::json to_json(const SolverStats& s);
+
+// One accepted step: where it ended, its size, and the weighted RMS norm of
+// its local error estimate (≤ 1 for an accepted adaptive step; NaN where the
+// method has no estimate).
+struct StepRecord {
+  double t = 0.0, h = 0.0, error = 0.0;
+};
+
+struct IntegratorOptions {
+  std::vector<int> watched_contacts;               // stick/slip root functions, none if empty
+  std::function<void(const StepRecord&)> on_step;  // called after every accepted step, if set
+};
+
+class Integrator {
+ public:
+  virtual ~Integrator() = default;
+  // Integrates toward t_out and returns the time reached: t_out, or earlier
+  // when a watched contact starts or stops slipping (then roots() says which).
+  // y receives the state at the returned time; output times are interpolated
+  // and never shape the step sequence.
+  virtual double advance(double t_out, std::span<double> y) = 0;
+  // After advance returned early: per watched contact +1 (slip), −1 (stick), 0.
+  virtual std::span<const int> roots() const = 0;
+  virtual SolverStats stats() const = 0;
+  // Method, order, tolerances or fixed step: how the result was obtained.
+  virtual nlohmann::json description() const = 0;
+};
+
+// Absolute tolerance of every state component: displacements and velocities
+// from the case; the quadratures of the energy audit and of μ get the scale one
+// displacement tolerance makes of them (k1 a · atol_u for energies,
+// k1 · atol_u · a / c_l for the impulse), so they are controlled relatively.
+std::vector<double> absolute_tolerances(const System& system, const SolverParams& solver);
+
+std::unique_ptr<Integrator> make_integrator(const System& system, const SolverParams& solver,
+                                            std::span<const double> y0, double t_stop,
+                                            IntegratorOptions options);
+
+}  // namespace stickslip

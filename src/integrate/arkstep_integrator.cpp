@@ -1,0 +1,194 @@
+#include "stickslip/integrate/arkstep_integrator.hpp"
+
+#include <arkode/arkode_arkstep.h>
+#include <arkode/arkode_butcher.h>
+#include <sunlinsol/sunlinsol_klu.h>
+
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include "failure.hpp"
+
+namespace stickslip {
+namespace {
+
+// The classic fourth-order Runge–Kutta tableau (no embedding: fixed step only).
+ARKodeButcherTable classic_rk4() {
+  const double c[4] = {0.0, 0.5, 0.5, 1.0};
+  const double a[16] = {0, 0, 0, 0, 0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 1.0, 0};
+  const double b[4] = {1.0 / 6, 1.0 / 3, 1.0 / 3, 1.0 / 6};
+  return ARKodeButcherTable_Create(4, 4, 0, const_cast<double*>(c), const_cast<double*>(a),
+                                   const_cast<double*>(b), nullptr);
+}
+
+}  // namespace
+
+ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& solver,
+                                     std::span<const double> y0, double t_stop,
+                                     IntegratorOptions options)
+    : system_(system), solver_(solver), options_(std::move(options)) {
+  y_ = make_serial_vector(y0, ctx_);
+  const Method m = solver.method;
+  // Which parts ARKStep sees: erk and rk4 all explicit, dirk all implicit,
+  // imex the contact forces implicit and the rest explicit.
+  ARKRhsFn fe = m == Method::imex ? explicit_rhs : (m == Method::dirk ? nullptr : full_rhs);
+  ARKRhsFn fi = m == Method::imex ? implicit_rhs : (m == Method::dirk ? full_rhs : nullptr);
+  arkode_mem_ = ARKStepCreate(fe, fi, 0.0, y_.get(), ctx_);
+  check_created(arkode_mem_, "ARKStepCreate");
+  check(ARKStepSetUserData(arkode_mem_, this), "ARKStepSetUserData");
+  atol_ = make_serial_vector(absolute_tolerances(system, solver), ctx_);
+  check(ARKStepSVtolerances(arkode_mem_, solver.rtol, atol_.get()), "ARKStepSVtolerances");
+  check(ARKStepSetStopTime(arkode_mem_, t_stop), "ARKStepSetStopTime");
+  check(ARKStepSetMaxNumSteps(arkode_mem_, solver.max_steps), "ARKStepSetMaxNumSteps");
+
+  if (m == Method::rk4) {
+    ARKodeButcherTable table = classic_rk4();
+    check_created(table, "ARKodeButcherTable_Create");
+    const int flag = ARKStepSetTables(arkode_mem_, 4, 0, nullptr, table);
+    ARKodeButcherTable_Free(table);  // ARKStep keeps its own copy
+    check(flag, "ARKStepSetTables");
+  } else if (solver.order > 0) {
+    check(ARKStepSetOrder(arkode_mem_, solver.order), "ARKStepSetOrder");
+  }
+  if (solver.step > 0) check(ARKStepSetFixedStep(arkode_mem_, solver.step), "ARKStepSetFixedStep");
+
+  if (m == Method::imex) {
+    // Stages solved exactly, contact by contact (contact_stage_solver.hpp).
+    stage_solver_ = make_contact_stage_solver(ctx_, system, stage_stats_);
+    check(ARKStepSetNonlinearSolver(arkode_mem_, stage_solver_.get()), "ARKStepSetNonlinearSolver");
+  } else if (m == Method::dirk) {
+    // Newton with KLU on I − γ J; ARKStep reuses J and KLU its symbolic
+    // factorization (the pattern never changes) across steps.
+    jacobian_ = system.jacobian_pattern(JacobianPart::full);
+    matrix_ = make_sparse_matrix(jacobian_, ctx_);
+    linear_solver_.reset(SUNLinSol_KLU(y_.get(), matrix_.get(), ctx_));
+    check_created(linear_solver_.get(), "SUNLinSol_KLU");
+    check(ARKStepSetLinearSolver(arkode_mem_, linear_solver_.get(), matrix_.get()),
+          "ARKStepSetLinearSolver");
+    check(ARKStepSetJacFn(arkode_mem_,
+                          [](double, N_Vector y, N_Vector, SUNMatrix J, void* self, N_Vector,
+                             N_Vector, N_Vector) {
+                            auto* me = static_cast<ArkStepIntegrator*>(self);
+                            return guarded(me->pending_, [&] {
+                              me->system_.jacobian_values(as_span(y), me->jacobian_);
+                              copy_into(me->jacobian_, J);
+                            });
+                          }),
+          "ARKStepSetJacFn");
+  }
+
+  roots_.assign(options_.watched_contacts.size(), 0);
+  if (!roots_.empty())
+    check(ARKStepRootInit(arkode_mem_, static_cast<int>(roots_.size()), root_fn),
+          "ARKStepRootInit");
+  if (options_.on_step) {
+    scratch_error_.reset(N_VClone(y_.get()));
+    scratch_weights_.reset(N_VClone(y_.get()));
+    check(ARKStepSetPostprocessStepFn(arkode_mem_, after_step), "ARKStepSetPostprocessStepFn");
+  }
+}
+
+ArkStepIntegrator::~ArkStepIntegrator() {
+  ARKStepFree(&arkode_mem_);
+}
+
+int ArkStepIntegrator::full_rhs(double t, N_Vector y, N_Vector ydot, void* self) {
+  auto* me = static_cast<ArkStepIntegrator*>(self);
+  return guarded(me->pending_, [&] { me->system_.rhs(t, as_span(y), as_span(ydot)); });
+}
+
+int ArkStepIntegrator::explicit_rhs(double t, N_Vector y, N_Vector ydot, void* self) {
+  auto* me = static_cast<ArkStepIntegrator*>(self);
+  return guarded(me->pending_, [&] { me->system_.rhs_explicit(t, as_span(y), as_span(ydot)); });
+}
+
+int ArkStepIntegrator::implicit_rhs(double t, N_Vector y, N_Vector ydot, void* self) {
+  auto* me = static_cast<ArkStepIntegrator*>(self);
+  return guarded(me->pending_, [&] { me->system_.rhs_implicit(t, as_span(y), as_span(ydot)); });
+}
+
+int ArkStepIntegrator::root_fn(double, N_Vector y, double* g, void* self) {
+  auto* me = static_cast<ArkStepIntegrator*>(self);
+  return guarded(me->pending_, [&] {
+    me->system_.stick_slip_roots(as_span(y), me->options_.watched_contacts,
+                                 std::span<double>(g, me->roots_.size()));
+  });
+}
+
+int ArkStepIntegrator::after_step(double t, N_Vector, void* self) {
+  auto* me = static_cast<ArkStepIntegrator*>(self);
+  return guarded(me->pending_, [&] {
+    StepRecord r{t, 0.0, std::numeric_limits<double>::quiet_NaN()};
+    ARKStepGetLastStep(me->arkode_mem_, &r.h);
+    if (me->solver_.method != Method::rk4 &&
+        ARKStepGetEstLocalErrors(me->arkode_mem_, me->scratch_error_.get()) >= 0 &&
+        ARKStepGetErrWeights(me->arkode_mem_, me->scratch_weights_.get()) >= 0)
+      r.error = N_VWrmsNorm(me->scratch_error_.get(), me->scratch_weights_.get());
+    me->options_.on_step(r);
+  });
+}
+
+double ArkStepIntegrator::advance(double t_out, std::span<double> y) {
+  double t = 0.0;
+  const int flag = ARKStepEvolve(arkode_mem_, t_out, y_.get(), &t, ARK_NORMAL);
+  if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
+  if (flag < 0) {
+    NVectorPtr err(N_VClone(y_.get())), weights(N_VClone(y_.get()));
+    const bool have = ARKStepGetEstLocalErrors(arkode_mem_, err.get()) >= 0 &&
+                      ARKStepGetErrWeights(arkode_mem_, weights.get()) >= 0;
+    throw IntegrationError(describe_failure(system_, "ARKStepEvolve",
+                                            ARKStepGetReturnFlagName(flag), t, err.get(),
+                                            weights.get(), have));
+  }
+  std::fill(roots_.begin(), roots_.end(), 0);
+  if (flag == ARK_ROOT_RETURN)
+    check(ARKStepGetRootInfo(arkode_mem_, roots_.data()), "ARKStepGetRootInfo");
+  const auto values = as_span(y_.get());
+  std::copy(values.begin(), values.end(), y.begin());
+  return flag == ARK_ROOT_RETURN ? t : t_out;
+}
+
+SolverStats ArkStepIntegrator::stats() const {
+  SolverStats s;
+  long expl = 0, acc = 0;
+  double h0 = 0, hcur = 0, tcur = 0;
+  ARKStepGetStepStats(arkode_mem_, &s.steps, &h0, &s.last_step, &hcur, &tcur);
+  ARKStepGetTimestepperStats(arkode_mem_, &expl, &acc, &s.step_attempts, &s.rhs_explicit,
+                             &s.rhs_implicit, &s.linear_setups, &s.error_test_failures);
+  ARKStepGetNumStepSolveFails(arkode_mem_, &s.convergence_failures);
+  if (!roots_.empty()) ARKStepGetNumGEvals(arkode_mem_, &s.root_evaluations);
+  if (solver_.method == Method::imex) {
+    s.newton_iterations = stage_stats_.scalar_iterations;
+  } else if (solver_.method == Method::dirk) {
+    ARKStepGetNumNonlinSolvIters(arkode_mem_, &s.newton_iterations);
+    ARKStepGetNumJacEvals(arkode_mem_, &s.jacobian_evaluations);
+  }
+  return s;
+}
+
+nlohmann::json ArkStepIntegrator::description() const {
+  static const char* const kNames[] = {
+      "ARKStep IMEX additive Runge-Kutta: lattice explicit, contact forces implicit, each stage "
+      "solved exactly contact by contact",
+      "ARKStep diagonally implicit Runge-Kutta, Newton with KLU on the sparse Jacobian",
+      "CVODE BDF", "ARKStep explicit Runge-Kutta", "classic fourth-order Runge-Kutta (ARKStep)"};
+  ARKodeButcherTable bi = nullptr, be = nullptr;
+  ARKStepGetCurrentButcherTables(arkode_mem_, &bi, &be);
+  const int order = bi ? bi->q : (be ? be->q : 0);
+  nlohmann::json d = {{"method", to_string(solver_.method)},
+                      {"integrator", kNames[static_cast<int>(solver_.method)]},
+                      {"order", order},
+                      {"stages", bi ? bi->stages : (be ? be->stages : 0)}};
+  if (solver_.step > 0) {
+    d["fixed_step"] = solver_.step;
+  } else {
+    d["adaptive"] = true;
+    d["rtol"] = solver_.rtol;
+    d["atol_displacement"] = solver_.atol_displacement;
+    d["atol_velocity"] = solver_.atol_velocity;
+  }
+  return d;
+}
+
+}  // namespace stickslip

@@ -1,0 +1,37 @@
+#pragma once
+// Shared wording of integrator failures (private to src/integrate).
+
+#include <algorithm>
+#include <cstdio>
+#include <numeric>
+#include <string>
+
+#include "stickslip/integrate/sundials.hpp"
+#include "stickslip/model/system.hpp"
+
+namespace stickslip {
+
+// "<call> failed at t = ... s: <flag>; largest weighted local errors: 3.2 at w^x of node (4, 7, 0),
+// ..."
+inline std::string describe_failure(const System& system, const char* call, const char* flag_name,
+                                    double t, N_Vector error, N_Vector weights, bool have_errors) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, " failed at t = %.9g s: ", t);
+  std::string msg = std::string(call) + buf + flag_name;
+  if (!have_errors) return msg;
+  N_VProd(error, weights, error);
+  const auto e = as_span(error);
+  std::vector<std::size_t> order(e.size());
+  std::iota(order.begin(), order.end(), 0);
+  const std::size_t shown = std::min<std::size_t>(3, order.size());
+  std::partial_sort(order.begin(), order.begin() + shown, order.end(),
+                    [&](auto a, auto b) { return std::abs(e[a]) > std::abs(e[b]); });
+  msg += "; largest weighted local errors:";
+  for (std::size_t k = 0; k < shown; ++k) {
+    std::snprintf(buf, sizeof buf, "%s %.3g at ", k ? "," : "", std::abs(e[order[k]]));
+    msg += buf + system.describe_component(static_cast<std::int64_t>(order[k]));
+  }
+  return msg;
+}
+
+}  // namespace stickslip

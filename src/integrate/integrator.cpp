@@ -1,0 +1,48 @@
+#include "stickslip/integrate/integrator.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "stickslip/integrate/arkstep_integrator.hpp"
+#include "stickslip/integrate/cvode_integrator.hpp"
+
+namespace stickslip {
+
+std::vector<double> absolute_tolerances(const System& system, const SolverParams& solver) {
+  const std::int64_t n = system.num_nodes();
+  std::vector<double> atol(static_cast<std::size_t>(system.size()));
+  std::fill(atol.begin(), atol.begin() + 3 * n, solver.atol_displacement);
+  std::fill(atol.begin() + 3 * n, atol.begin() + 6 * n, solver.atol_velocity);
+  const double k1 = system.mass() * system.g1() / (system.spacing() * system.spacing());
+  const double energy = k1 * system.spacing() * solver.atol_displacement;
+  const double c_l = std::sqrt(system.g1() + system.g2());
+  atol[system.quadrature_index(System::work_in)] = energy;
+  atol[system.quadrature_index(System::dissipated)] = energy;
+  atol[system.quadrature_index(System::friction_impulse)] =
+      k1 * solver.atol_displacement * system.spacing() / c_l;
+  return atol;
+}
+
+nlohmann::json to_json(const SolverStats& s) {
+  return {{"steps", s.steps},
+          {"step_attempts", s.step_attempts},
+          {"rhs_explicit", s.rhs_explicit},
+          {"rhs_implicit", s.rhs_implicit},
+          {"newton_iterations", s.newton_iterations},
+          {"convergence_failures", s.convergence_failures},
+          {"linear_setups", s.linear_setups},
+          {"jacobian_evaluations", s.jacobian_evaluations},
+          {"error_test_failures", s.error_test_failures},
+          {"root_evaluations", s.root_evaluations},
+          {"last_step", s.last_step}};
+}
+
+std::unique_ptr<Integrator> make_integrator(const System& system, const SolverParams& solver,
+                                            std::span<const double> y0, double t_stop,
+                                            IntegratorOptions options) {
+  if (solver.method == Method::bdf)
+    return std::make_unique<CvodeIntegrator>(system, solver, y0, t_stop, std::move(options));
+  return std::make_unique<ArkStepIntegrator>(system, solver, y0, t_stop, std::move(options));
+}
+
+}  // namespace stickslip
