@@ -503,9 +503,12 @@ void check_consistency(const Reader& r, const Case& c) {
   if (s.method == Method::bdf && s.step > 0)
     r.fail_first({{"solver.step", "must be 0 with method = \"bdf\" (CVODE has no fixed step)"},
                   {"solver.method", "\"bdf\" is adaptive only: leave [solver] step out"}});
-  // Orders SUNDIALS offers: ARKStep IMEX 2–5, DIRK 2–5, ERK 2–8; CVODE BDF 1–5; rk4 is 4.
+  // Orders SUNDIALS 6.4 offers: ARKStep IMEX 3–5, DIRK 2–5, ERK 2–8; CVODE BDF 1–5; rk4 is 4.
   const int max_order = s.method == Method::erk ? 8 : s.method == Method::rk4 ? 4 : 5;
-  const int min_order = s.method == Method::bdf ? 1 : s.method == Method::rk4 ? 4 : 2;
+  const int min_order = s.method == Method::bdf    ? 1
+                        : s.method == Method::imex ? 3
+                        : s.method == Method::rk4  ? 4
+                                                   : 2;
   if (s.order != 0 && (s.order < min_order || s.order > max_order))
     r.fail_first({{"solver.order", "must be 0 (default) or in [" + std::to_string(min_order) +
                                        ", " + std::to_string(max_order) + "] for method = \"" +

@@ -25,7 +25,7 @@ ARKodeButcherTable classic_rk4() {
 }  // namespace
 
 ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& solver,
-                                     std::span<const double> y0, double t_stop,
+                                     std::span<const double> y0, double t0, double t_stop,
                                      IntegratorOptions options)
     : system_(system), solver_(solver), options_(std::move(options)) {
   y_ = make_serial_vector(y0, ctx_);
@@ -34,7 +34,7 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
   // imex the contact forces implicit and the rest explicit.
   ARKRhsFn fe = m == Method::imex ? explicit_rhs : (m == Method::dirk ? nullptr : full_rhs);
   ARKRhsFn fi = m == Method::imex ? implicit_rhs : (m == Method::dirk ? full_rhs : nullptr);
-  arkode_mem_ = ARKStepCreate(fe, fi, 0.0, y_.get(), ctx_);
+  arkode_mem_ = ARKStepCreate(fe, fi, t0, y_.get(), ctx_);
   check_created(arkode_mem_, "ARKStepCreate");
   check(ARKStepSetUserData(arkode_mem_, this), "ARKStepSetUserData");
   atol_ = make_serial_vector(absolute_tolerances(system, solver), ctx_);

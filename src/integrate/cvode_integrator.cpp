@@ -11,7 +11,7 @@
 namespace stickslip {
 
 CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solver,
-                                 std::span<const double> y0, double t_stop,
+                                 std::span<const double> y0, double t0, double t_stop,
                                  IntegratorOptions options)
     : system_(system),
       solver_(solver),
@@ -22,7 +22,7 @@ CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solve
   y_ = make_serial_vector(y0, ctx_);
   cvode_mem_ = CVodeCreate(CV_BDF, ctx_);
   check_created(cvode_mem_, "CVodeCreate");
-  check(CVodeInit(cvode_mem_, rhs, 0.0, y_.get()), "CVodeInit");
+  check(CVodeInit(cvode_mem_, rhs, t0, y_.get()), "CVodeInit");
   check(CVodeSetUserData(cvode_mem_, this), "CVodeSetUserData");
   atol_ = make_serial_vector(absolute_tolerances(system, solver), ctx_);
   check(CVodeSVtolerances(cvode_mem_, solver.rtol, atol_.get()), "CVodeSVtolerances");

@@ -39,10 +39,10 @@ nlohmann::json to_json(const SolverStats& s) {
 
 std::unique_ptr<Integrator> make_integrator(const System& system, const SolverParams& solver,
                                             std::span<const double> y0, double t_stop,
-                                            IntegratorOptions options) {
+                                            IntegratorOptions options, double t0) {
   if (solver.method == Method::bdf)
-    return std::make_unique<CvodeIntegrator>(system, solver, y0, t_stop, std::move(options));
-  return std::make_unique<ArkStepIntegrator>(system, solver, y0, t_stop, std::move(options));
+    return std::make_unique<CvodeIntegrator>(system, solver, y0, t0, t_stop, std::move(options));
+  return std::make_unique<ArkStepIntegrator>(system, solver, y0, t0, t_stop, std::move(options));
 }
 
 }  // namespace stickslip

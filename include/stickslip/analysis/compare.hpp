@@ -7,8 +7,9 @@
 // Tolerance rule (rtol, default 1e-2). The comparison fails if
 //   - |μ_B − μ_A| / |μ_A| > rtol, or
 //   - for any trace column present in both runs, the relative L2 difference
-//     RMS(B − A) / RMS(A) > rtol (B interpolated linearly onto A's times over
-//     the interval both cover; a column with no common time fails), or
+//     RMS(B − A) / S > rtol, S the largest RMS(A) over the common columns (B
+//     interpolated linearly onto A's times over the interval both cover; a
+//     column with no common time fails), or
 //   - for any contact and kind, the i-th events of A and B (in time order)
 //     differ in time by more than rtol × t_end of A, or
 //   - any event has no partner (one run has more events of a contact and kind).
@@ -41,7 +42,8 @@ struct TraceDiff {
   long samples = 0;      // A's samples inside the common time interval
   double l2 = 0.0;       // RMS of B − A over those samples
   double max_abs = 0.0;  // max |B − A|
-  double rel_l2 = 0.0;   // l2 / RMS of A (0 if both are identically 0)
+  double rms_a = 0.0;    // RMS of A over those samples
+  double rel_l2 = 0.0;   // l2 / the largest rms_a of the run (0 if all are identically 0)
 };
 
 struct EventDiff {

@@ -12,7 +12,7 @@ namespace stickslip {
 
 class ArkStepIntegrator final : public Integrator {
  public:
-  ArkStepIntegrator(const System& system, const SolverParams& solver, std::span<const double> y0,
+  ArkStepIntegrator(const System& system, const SolverParams& solver, std::span<const double> y0, double t0,
                     double t_stop, IntegratorOptions options);
   ~ArkStepIntegrator() override;
   ArkStepIntegrator(const ArkStepIntegrator&) = delete;

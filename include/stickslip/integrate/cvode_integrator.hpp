@@ -11,7 +11,7 @@ namespace stickslip {
 
 class CvodeIntegrator final : public Integrator {
  public:
-  CvodeIntegrator(const System& system, const SolverParams& solver, std::span<const double> y0,
+  CvodeIntegrator(const System& system, const SolverParams& solver, std::span<const double> y0, double t0,
                   double t_stop, IntegratorOptions options);
   ~CvodeIntegrator() override;
   CvodeIntegrator(const CvodeIntegrator&) = delete;

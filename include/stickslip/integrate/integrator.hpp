@@ -62,8 +62,9 @@ class Integrator {
 // k1 · atol_u · a / c_l for the impulse), so they are controlled relatively.
 std::vector<double> absolute_tolerances(const System& system, const SolverParams& solver);
 
+// Starts from y0 at t0 (0 for a run; later for a restart or a test).
 std::unique_ptr<Integrator> make_integrator(const System& system, const SolverParams& solver,
                                             std::span<const double> y0, double t_stop,
-                                            IntegratorOptions options);
+                                            IntegratorOptions options, double t0 = 0.0);
 
 }  // namespace stickslip
