@@ -195,3 +195,34 @@ TEST_CASE("an adaptive run agrees with a fine fixed-step run", "[methods][compar
   INFO(to_json(r).dump(1));
   CHECK(r.pass());
 }
+
+TEST_CASE("steps.csv lists every accepted step with its size and error", "[methods][steps]") {
+  Case c = smooth_case();
+  c.run.t_end = 2e-6;
+  c.run.average_from = 0.0;
+  c.output.interval = 1e-7;
+  c.output.steps = true;
+  TempDir dir("stickslip_test_steps");
+  for (Method m : {Method::imex, Method::bdf}) {
+    c.solver.method = m;
+    RunOptions options{dir.path / to_string(m), false, true};
+    const RunResult r = run_case(c, options);
+    std::ifstream in(options.out_dir / "steps.csv");
+    std::string line;
+    std::getline(in, line);
+    CHECK(line == "t,h,error");
+    double t_prev = 0.0;
+    long rows = 0;
+    while (std::getline(in, line)) {
+      double t, h, e;
+      REQUIRE(std::sscanf(line.c_str(), "%lf,%lf,%lf", &t, &h, &e) == 3);
+      INFO(to_string(m) << " row " << rows << ": " << line);
+      CHECK(h == Approx(t - t_prev).epsilon(1e-8));  // the columns are printed to 10 digits
+      CHECK(e <= 1.0);                               // accepted steps pass the error test
+      t_prev = t;
+      ++rows;
+    }
+    CHECK(rows == r.stats.steps);
+    CHECK(t_prev == Approx(c.run.t_end).epsilon(1e-12));
+  }
+}

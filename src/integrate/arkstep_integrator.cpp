@@ -27,7 +27,7 @@ ARKodeButcherTable classic_rk4() {
 ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& solver,
                                      std::span<const double> y0, double t0, double t_stop,
                                      IntegratorOptions options)
-    : system_(system), solver_(solver), options_(std::move(options)) {
+    : system_(system), solver_(solver), options_(std::move(options)), t_last_step_(t0) {
   y_ = make_serial_vector(y0, ctx_);
   const Method m = solver.method;
   // Which parts ARKStep sees: erk and rk4 all explicit, dirk all implicit,
@@ -119,8 +119,9 @@ int ArkStepIntegrator::root_fn(double, N_Vector y, double* g, void* self) {
 int ArkStepIntegrator::after_step(double t, N_Vector, void* self) {
   auto* me = static_cast<ArkStepIntegrator*>(self);
   return guarded(me->pending_, [&] {
-    StepRecord r{t, 0.0, std::numeric_limits<double>::quiet_NaN()};
-    ARKStepGetLastStep(me->arkode_mem_, &r.h);
+    // ARKStep has not yet recorded this step's size when it calls us.
+    StepRecord r{t, t - me->t_last_step_, std::numeric_limits<double>::quiet_NaN()};
+    me->t_last_step_ = t;
     if (me->solver_.method != Method::rk4 &&
         ARKStepGetEstLocalErrors(me->arkode_mem_, me->scratch_error_.get()) >= 0 &&
         ARKStepGetErrWeights(me->arkode_mem_, me->scratch_weights_.get()) >= 0)

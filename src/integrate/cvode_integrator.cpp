@@ -16,6 +16,7 @@ CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solve
     : system_(system),
       solver_(solver),
       options_(std::move(options)),
+      t_last_step_(t0),
       // BDF of order ≥ 3 is not A-stable and the lattice modes are lightly
       // damped: at loose tolerance it produced spurious slips (MODEL.md §12).
       max_order_(solver.order > 0 ? solver.order : 2) {
@@ -77,7 +78,11 @@ int CvodeIntegrator::jacobian(double, N_Vector y, N_Vector, SUNMatrix J, void* s
 void CvodeIntegrator::record_step() {
   StepRecord r{0.0, 0.0, std::numeric_limits<double>::quiet_NaN()};
   CVodeGetCurrentTime(cvode_mem_, &r.t);
-  CVodeGetLastStep(cvode_mem_, &r.h);
+  // In CV_ONE_STEP mode CVode first hands back a step it took earlier but
+  // returned only up to an interpolated output time: not a new step.
+  if (r.t <= t_last_step_) return;
+  r.h = r.t - t_last_step_;
+  t_last_step_ = r.t;
   if (CVodeGetEstLocalErrors(cvode_mem_, scratch_error_.get()) >= 0 &&
       CVodeGetErrWeights(cvode_mem_, scratch_weights_.get()) >= 0)
     r.error = N_VWrmsNorm(scratch_error_.get(), scratch_weights_.get());
@@ -96,10 +101,8 @@ double CvodeIntegrator::advance(double t_out, std::span<double> y) {
     flag = CVode(cvode_mem_, t_out, y_.get(), &t, one_step ? CV_ONE_STEP : CV_NORMAL);
     if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
     if (flag < 0) break;
-    if (one_step && flag == CV_SUCCESS) {
-      record_step();
-      continue;
-    }
+    if (one_step) record_step();  // also when the step hit t_stop or held a root
+    if (one_step && flag == CV_SUCCESS) continue;
     break;
   }
   if (flag < 0) {

@@ -12,8 +12,8 @@ namespace stickslip {
 
 class ArkStepIntegrator final : public Integrator {
  public:
-  ArkStepIntegrator(const System& system, const SolverParams& solver, std::span<const double> y0, double t0,
-                    double t_stop, IntegratorOptions options);
+  ArkStepIntegrator(const System& system, const SolverParams& solver, std::span<const double> y0,
+                    double t0, double t_stop, IntegratorOptions options);
   ~ArkStepIntegrator() override;
   ArkStepIntegrator(const ArkStepIntegrator&) = delete;
   ArkStepIntegrator& operator=(const ArkStepIntegrator&) = delete;
@@ -43,6 +43,7 @@ class ArkStepIntegrator final : public Integrator {
   void* arkode_mem_ = nullptr;
   std::vector<int> roots_;
   std::exception_ptr pending_;
+  double t_last_step_;  // end of the previous accepted step, for steps.csv
 };
 
 }  // namespace stickslip

@@ -11,8 +11,8 @@ namespace stickslip {
 
 class CvodeIntegrator final : public Integrator {
  public:
-  CvodeIntegrator(const System& system, const SolverParams& solver, std::span<const double> y0, double t0,
-                  double t_stop, IntegratorOptions options);
+  CvodeIntegrator(const System& system, const SolverParams& solver, std::span<const double> y0,
+                  double t0, double t_stop, IntegratorOptions options);
   ~CvodeIntegrator() override;
   CvodeIntegrator(const CvodeIntegrator&) = delete;
   CvodeIntegrator& operator=(const CvodeIntegrator&) = delete;
@@ -32,6 +32,7 @@ class CvodeIntegrator final : public Integrator {
   const System& system_;
   SolverParams solver_;
   IntegratorOptions options_;
+  double t_last_step_;  // end of the last step written to steps.csv
   int max_order_;
   SunContext ctx_;
   NVectorPtr y_, atol_, scratch_error_, scratch_weights_;
