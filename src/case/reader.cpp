@@ -92,6 +92,146 @@ bool from_override(const toml::node& n) {
   return n.source().path && *n.source().path == kOverride;
 }
 
+// A TOML syntax error, from toml++ or from parse_toml below.
+struct TomlSyntaxError {
+  std::string description;
+  std::uint32_t line;
+};
+
+// Decodes the UTF-8 sequence at s[i] into `cp`; returns its length, 0 if it is not valid UTF-8.
+std::size_t utf8_at(std::string_view s, std::size_t i, char32_t& cp) {
+  const auto lead = static_cast<unsigned char>(s[i]);
+  const std::size_t n = lead < 0x80           ? 1
+                        : (lead & 0xe0) == 0xc0 ? 2
+                        : (lead & 0xf0) == 0xe0 ? 3
+                        : (lead & 0xf8) == 0xf0 ? 4
+                                                : 0;
+  if (n == 0 || n > s.size() - i) return 0;
+  cp = n == 1 ? lead : lead & (0x7f >> n);
+  for (std::size_t k = 1; k < n; ++k) {
+    const auto next = static_cast<unsigned char>(s[i + k]);
+    if ((next & 0xc0) != 0x80) return 0;
+    cp = cp << 6 | (next & 0x3f);
+  }
+  constexpr char32_t shortest[] = {0, 0, 0x80, 0x800, 0x10000};  // longer is overlong
+  if (cp < shortest[n] || cp > 0x10ffff || (cp >= 0xd800 && cp <= 0xdfff)) return 0;
+  return n;
+}
+
+std::string code_point(char32_t cp) {
+  char name[16];
+  std::snprintf(name, sizeof name, "U+%04X", static_cast<unsigned>(cp));
+  return name;
+}
+
+// toml++ 3.3.0 (Debian 12's libtomlplusplus3) executes __builtin_unreachable(),
+// which is undefined behaviour, when it asks whether some non-ASCII characters
+// (U+00A1..U+0499 and others) are whitespace: upstream issues #190 and #295,
+// found here by scripts/fuzz. It asks for a non-ASCII character outside strings
+// and comments (always an error in TOML), for one right after a backslash in a
+// multi-line basic string (an invalid escape), and for the first character after
+// a line-ending backslash (valid TOML). So toml++ never sees those: this lexer
+// (strings and comments, TOML 1.0 rules) reports the first two as malformed TOML
+// and replaces the third by its \U escape, which means the same. Lines are kept.
+toml::table parse_toml(std::string_view text, std::string_view source) {
+  enum class State { normal, comment, basic, literal, ml_basic, ml_literal } state = State::normal;
+  std::string fixed;  // text[0, copied) with the escapes put in, once one is needed
+  std::size_t copied = 0;
+  bool escaped = false;   // after a backslash in a basic string
+  bool line_end = false;  // skipping whitespace after a line-ending backslash (ml_basic)
+  std::size_t bad = text.size();  // where the error is, if any
+  std::string what;
+  std::uint32_t line = 1;
+  auto run_of = [&](std::size_t i, char quote) {
+    std::size_t n = 0;
+    while (i + n < text.size() && text[i + n] == quote) ++n;
+    return n;
+  };
+  for (std::size_t i = 0; i < text.size();) {
+    char32_t cp = 0;
+    const std::size_t len = utf8_at(text, i, cp);
+    const char ch = text[i];
+    const bool space = ch == ' ' || ch == '\t' || ch == '\r' || ch == '\n';
+    if (len == 0) {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "0x%02x", static_cast<unsigned char>(ch));
+      what = "invalid UTF-8 (byte "s + hex + ")";
+      bad = i;
+      break;
+    }
+    if (state == State::normal && cp >= 0x80) {
+      what = "unexpected character " + code_point(cp) + " outside a string or comment";
+      bad = i;
+      break;
+    }
+    if (state == State::ml_basic && escaped && cp >= 0x80) {
+      what = "unknown escape sequence '\\" + std::string(text.substr(i, len)) + "' (" +
+             code_point(cp) + ")";
+      bad = i;
+      break;
+    }
+    if (escaped) {  // the character after a backslash is never special
+      escaped = false;
+      line_end = state == State::ml_basic && space;
+    } else if (state == State::ml_basic && line_end && space) {
+    } else if (state == State::ml_basic || state == State::ml_literal) {
+      if (line_end && cp >= 0x80) {
+        char escape[12];
+        std::snprintf(escape, sizeof escape, "\\U%08X", static_cast<unsigned>(cp));
+        fixed.append(text.substr(copied, i - copied)).append(escape);
+        copied = i + len;
+      }
+      line_end = false;
+      const char quote = state == State::ml_basic ? '"' : '\'';
+      if (ch == '\\' && state == State::ml_basic) {
+        escaped = true;
+      } else if (ch == quote) {  // """ closes, taking up to two more quotes with it
+        const std::size_t n = run_of(i, quote);
+        if (n >= 3) state = State::normal;
+        i += n >= 3 ? std::min<std::size_t>(n, 5) : n;
+        continue;
+      }
+    } else if (state == State::basic || state == State::literal) {
+      if (ch == '\\' && state == State::basic)
+        escaped = true;
+      else if (ch == (state == State::basic ? '"' : '\'') || ch == '\n')
+        state = State::normal;  // at a newline, toml++ reports the unclosed string
+    } else if (state == State::comment) {
+      if (ch == '\n') state = State::normal;
+    } else if (ch == '#') {
+      state = State::comment;
+    } else if (ch == '"' || ch == '\'') {
+      const bool multi_line = run_of(i, ch) >= 3;
+      state = ch == '"' ? (multi_line ? State::ml_basic : State::basic)
+                        : (multi_line ? State::ml_literal : State::literal);
+      i += multi_line ? 3 : 1;
+      continue;
+    }
+    if (ch == '\n') ++line;
+    i += len;
+  }
+  try {
+    if (bad == text.size()) {
+      if (copied == 0) return toml::parse(text, source);
+      fixed.append(text.substr(copied));
+      return toml::parse(fixed, source);
+    }
+    // An error on an earlier line wins: toml++ reads the text up to `bad`, with
+    // the string cut there closed, and reports the first error in it, if any.
+    fixed.append(text.substr(copied, bad - copied));
+    if (escaped) fixed.pop_back();  // the backslash
+    if (state == State::basic) fixed += '"';
+    if (state == State::literal) fixed += '\'';
+    if (state == State::ml_basic) fixed += "\"\"\"";
+    if (state == State::ml_literal) fixed += "'''";
+    toml::parse(fixed, source);
+  } catch (const toml::parse_error& e) {
+    if (bad == text.size() || e.source().begin.line < line)
+      throw TomlSyntaxError{printable(e.description()), e.source().begin.line};
+  }
+  throw TomlSyntaxError{what, line};
+}
+
 // The state of one parse: the source name for messages, and the nodes that the
 // cross-key checks need to blame.
 struct Reader {
@@ -334,6 +474,8 @@ const std::vector<Entry>& schema() {
        real(&Case::run, &RunParams::average_from, kNonNegative)},
       {"run", "initial", "rest or sliding",
        choice(&Case::run, &RunParams::initial, InitialState::rest, InitialState::sliding)},
+      {"run", "checkpoint_every", "[s] simulated time between checkpoints (0: none)",
+       real(&Case::run, &RunParams::checkpoint_every, kNonNegative)},
       {"solver", "method", "time integrator",
        choice(&Case::solver, &SolverParams::method, Method::imex, Method::dirk, Method::bdf,
               Method::erk, Method::rk4)},
@@ -409,8 +551,8 @@ void apply_override(toml::table& root, std::string_view text) {
   std::string value = trim(text.substr(eq + 1));
   toml::table parsed;
   try {
-    parsed = toml::parse("v = " + value, kOverride);
-  } catch (const toml::parse_error& e) {
+    parsed = parse_toml("v = " + value, kOverride);
+  } catch (const TomlSyntaxError& e) {
     // A bare word (navier, all) is taken as a string so the shell needs no quotes around quotes.
     bool word = !value.empty() && std::isalpha(static_cast<unsigned char>(value[0])) &&
                 std::all_of(value.begin(), value.end(), [](unsigned char ch) {
@@ -418,8 +560,8 @@ void apply_override(toml::table& root, std::string_view text) {
                 });
     if (!word)
       throw CaseError("--set " + key + ": malformed TOML value '" + printable(value) +
-                      "': " + printable(e.description()));
-    parsed = toml::parse("v = \"" + value + "\"", kOverride);
+                      "': " + e.description);
+    parsed = parse_toml("v = \"" + value + "\"", kOverride);
   }
   toml::node* sec = root.get(section);
   if (!sec) sec = &root.insert(section, toml::table{}).first->second;
@@ -523,10 +665,9 @@ Case parse_case(std::string_view toml_text, const std::filesystem::path& source,
   Reader r{printable(source.string()), {}, {}, {}, {}};
   toml::table root;
   try {
-    root = toml::parse(toml_text, std::string_view(source.native()));
-  } catch (const toml::parse_error& e) {
-    throw CaseError(r.source + ":" + std::to_string(e.source().begin.line) +
-                    ": malformed TOML: " + printable(e.description()));
+    root = parse_toml(toml_text, std::string_view(source.native()));
+  } catch (const TomlSyntaxError& e) {
+    throw CaseError(r.source + ":" + std::to_string(e.line) + ": malformed TOML: " + e.description);
   }
   for (const auto& o : overrides) apply_override(root, o);
 

@@ -4,6 +4,7 @@
 // (stickslip/analysis/compare.hpp).
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -16,21 +17,33 @@
 
 namespace {
 
-int run_command(const std::string& case_file, const std::string& out,
+int run_command(const std::string& case_file, const std::string& out, const std::string& restart,
                 const std::vector<std::string>& sets, bool overwrite, bool quiet) {
   using namespace stickslip;
+  std::filesystem::path dir;  // known once the case is read
   try {
     const Case c = read_case(case_file, sets);
     RunOptions options;
-    options.out_dir = output_dir_for(c, out);
+    options.out_dir = restart.empty() ? output_dir_for(c, out) : std::filesystem::path(restart);
     options.overwrite = overwrite;
     options.quiet = quiet;
+    options.restart = !restart.empty();
+    dir = options.out_dir;
+    install_stop_handlers();
     const RunResult r = run_case(c, options);
     std::printf(
         "mu = %.6f  (theta = %.4f, %zu contacts, energy residual %.2e, %ld steps, %.1f s)\n", r.mu,
         r.theta, r.contacts, r.energy_residual, r.stats.steps, r.wall_seconds);
     std::printf("outputs in %s\n", options.out_dir.string().c_str());
     return 0;
+  } catch (const Interrupted& stop) {
+    std::string sets_text;
+    for (const auto& set : sets) sets_text += " --set '" + set + "'";
+    std::fprintf(stderr,
+                 "interrupted at t = %.9g s; outputs flushed and a checkpoint written in %s\n"
+                 "continue with: stickslip run %s%s --restart %s\n",
+                 stop.t, dir.c_str(), case_file.c_str(), sets_text.c_str(), dir.c_str());
+    return 128 + stop.signal;
   } catch (const CaseError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
@@ -57,7 +70,12 @@ int main(int argc, char** argv) {
   bool overwrite = false, quiet = false;
   CLI::App* run = app.add_subcommand("run", "integrate a case file and write its outputs");
   run->add_option("case", case_file, "the case file (TOML)")->required();
-  run->add_option("--out", out, "output directory (default: [output] dir, else out/<case name>)");
+  std::string restart;
+  auto* out_option = run->add_option(
+      "--out", out, "output directory (default: [output] dir, else out/<case name>)");
+  run->add_option("--restart", restart,
+                  "continue the interrupted run in this output directory from its checkpoint")
+      ->excludes(out_option);
   run->add_option("--set", sets, "override a case value: section.key=value (repeatable)");
   run->add_flag("--overwrite", overwrite,
                 "replace the results of an earlier run in the output directory");
@@ -78,7 +96,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "error: %s (see stickslip --help)\n", e.what());
     return 2;
   }
-  if (*run) return run_command(case_file, out, sets, overwrite, quiet);
+  if (*run) return run_command(case_file, out, restart, sets, overwrite, quiet);
   if (*compare)
     return stickslip::compare_command(dir_a, dir_b, rtol, compare_out, std::cout, std::cerr);
   return 2;

@@ -1,5 +1,6 @@
 #include "stickslip/output/writers.hpp"
 
+#include <cstdlib>
 #include <system_error>
 
 namespace stickslip {
@@ -35,6 +36,36 @@ CsvWriter::CsvWriter(const std::filesystem::path& file, const std::vector<std::s
   if (!out_) throw OutputError(file.string() + ": cannot open for writing");
   for (std::size_t i = 0; i < header.size(); ++i) out_ << (i ? "," : "") << header[i];
   out_ << '\n';
+}
+
+CsvWriter CsvWriter::append(const std::filesystem::path& file) {
+  CsvWriter w;
+  w.out_.open(file, std::ios::app);
+  w.file_ = file;
+  if (!w.out_) throw OutputError(file.string() + ": cannot open for appending");
+  return w;
+}
+
+void keep_rows_up_to(const std::filesystem::path& file, double t) {
+  std::ifstream in(file);
+  if (!in) return;
+  std::string header, line, kept;
+  std::getline(in, header);
+  kept = header + '\n';
+  while (std::getline(in, line)) {
+    // Rows are in time order; times are printed to 12 digits, so the row at t
+    // itself may read back a little above it.
+    if (std::strtod(line.c_str(), nullptr) > t * (1 + 1e-10)) break;
+    kept += line + '\n';
+  }
+  in.close();
+  const auto tmp = std::filesystem::path(file.string() + ".tmp");
+  {
+    std::ofstream out(tmp);
+    out << kept;
+    if (!out.flush()) throw OutputError(tmp.string() + ": write failed");
+  }
+  std::filesystem::rename(tmp, file);
 }
 
 void CsvWriter::row(double t, std::span<const double> values) {

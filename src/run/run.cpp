@@ -6,14 +6,18 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <optional>
 
+#include "stickslip/analysis/compare.hpp"
 #include "stickslip/analysis/events.hpp"
 #include "stickslip/integrate/sundials.hpp"
 #include "stickslip/model/contacts.hpp"
 #include "stickslip/model/system.hpp"
+#include "stickslip/output/checkpoint.hpp"
 #include "stickslip/output/writers.hpp"
 #include "stickslip/version.hpp"
 
@@ -21,6 +25,15 @@ namespace stickslip {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+volatile std::sig_atomic_t g_stop_signal = 0;
+extern "C" void request_stop(int sig) {
+  g_stop_signal = sig;
+}
+
+// How often (wall time) the CSV outputs are flushed, so a crash keeps them.
+constexpr double kFlushSeconds = 2.0;
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 // A fixed-step run whose energy audit is off by this much has blown up.
 constexpr double kDivergedResidual = 0.5;
@@ -80,6 +93,11 @@ double travel_time(const System& s, const Contact& a, const Contact& b) {
 
 }  // namespace
 
+void install_stop_handlers() {
+  std::signal(SIGINT, request_stop);
+  std::signal(SIGTERM, request_stop);
+}
+
 std::filesystem::path output_dir_for(const Case& c, const std::filesystem::path& out_flag) {
   if (!out_flag.empty()) return out_flag;
   if (!c.output.dir.empty()) return c.output.dir;
@@ -88,12 +106,30 @@ std::filesystem::path output_dir_for(const Case& c, const std::filesystem::path&
 
 RunResult run_case(const Case& c, const RunOptions& options) {
   const auto wall_start = Clock::now();
-  prepare_output_dir(options.out_dir, options.overwrite);
+  const auto& dir = options.out_dir;
+  // A restart continues from the checkpoint: same case, same code, and every
+  // output cut back to the checkpoint's time so no row is duplicated.
+  std::optional<Checkpoint> resume;
+  if (options.restart) {
+    if (std::filesystem::exists(dir / "summary.json"))
+      throw OutputError(dir.string() + ": the run there has finished (summary.json exists)");
+    resume = read_checkpoint(dir);
+    if (restart_identity(resume->case_json) != restart_identity(to_json(c)))
+      throw OutputError((dir / kCheckpointFile).string() +
+                        ": written for a different case; restart with the case file it came from");
+    if (resume->git_commit != kGitCommit)
+      throw OutputError((dir / kCheckpointFile).string() + ": written by code version " +
+                        resume->git_commit + ", this is " + kGitCommit);
+    for (const char* name : {"friction.csv", "traces.csv", "events.csv", "steps.csv"})
+      keep_rows_up_to(dir / name, resume->t);
+  } else {
+    prepare_output_dir(dir, options.overwrite);
+  }
   const System system(c, place_contacts(c.lattice, c.interface));
   const auto& contacts = system.contacts();
 
-  {
-    std::ofstream out(options.out_dir / "contacts.csv");
+  if (!resume) {
+    std::ofstream out(dir / "contacts.csv");
     out << "id,ix,iy,v_star\n";
     char line[96];
     for (std::size_t i = 0; i < contacts.size(); ++i) {
@@ -103,7 +139,10 @@ RunResult run_case(const Case& c, const RunOptions& options) {
     }
   }
   // Only what the case asks for is recorded: traces, events, steps.
-  CsvWriter friction(options.out_dir / "friction.csv", {"t", "F_f", "mu_inst"});
+  auto open_csv = [&](const char* name, const std::vector<std::string>& header) {
+    return resume ? CsvWriter::append(dir / name) : CsvWriter(dir / name, header);
+  };
+  CsvWriter friction = open_csv("friction.csv", {"t", "F_f", "mu_inst"});
   const auto traced = selected(c.output.traces, c.output.trace_ids, contacts.size());
   const auto watched = selected(c.output.events, c.output.event_ids, contacts.size());
   std::optional<CsvWriter> traces, events_csv, steps_csv;
@@ -113,15 +152,14 @@ RunResult run_case(const Case& c, const RunOptions& options) {
       header.push_back("vx_" + std::to_string(id));
       header.push_back("vy_" + std::to_string(id));
     }
-    traces.emplace(options.out_dir / "traces.csv", header);
+    traces.emplace(open_csv("traces.csv", header));
   }
   if (!watched.empty())
-    events_csv.emplace(options.out_dir / "events.csv",
-                       std::vector<std::string>{"t", "contact", "kind", "speed", "force"});
+    events_csv.emplace(open_csv("events.csv", {"t", "contact", "kind", "speed", "force"}));
   IntegratorOptions integrator_options;
   integrator_options.watched_contacts = watched;
   if (c.output.steps) {
-    steps_csv.emplace(options.out_dir / "steps.csv", std::vector<std::string>{"t", "h", "error"});
+    steps_csv.emplace(open_csv("steps.csv", {"t", "h", "error"}));
     integrator_options.on_step = [&](const StepRecord& r) {
       const double row[2] = {r.h, r.error};
       steps_csv->row(r.t, row);
@@ -139,12 +177,30 @@ RunResult run_case(const Case& c, const RunOptions& options) {
 
   std::vector<double> y0(static_cast<std::size_t>(system.size()));
   system.initial_state(c.run.initial, y0);
-  std::vector<double> y = y0;
-  auto integrator = make_integrator(system, c.solver, y0, c.run.t_end, integrator_options);
+  std::vector<double> y = resume ? resume->state : y0;
+  auto integrator = make_integrator(system, c.solver, y, c.run.t_end, integrator_options,
+                                    resume ? resume->t : 0.0);
+  const SolverStats stats_before = resume ? resume->stats : SolverStats{};
+  auto total_stats = [&] {
+    SolverStats s = stats_before;
+    return s += integrator->stats();
+  };
 
   std::vector<bool> slipping_at_start(contacts.size());
   for (std::size_t i = 0; i < contacts.size(); ++i) slipping_at_start[i] = system.slipping(i, y0);
   std::vector<Event> events;
+  if (resume && events_csv) events = read_events_csv(dir / "events.csv");
+  if (resume && pair_traced) {
+    const TraceTable table = read_traces_csv(dir / "traces.csv");
+    auto column = [&](int id) {
+      const auto name = "vx_" + std::to_string(id);
+      return table.values[static_cast<std::size_t>(
+          std::find(table.columns.begin(), table.columns.end(), name) - table.columns.begin())];
+    };
+    pair_t = table.t;
+    pair_va = column(pair->first);
+    pair_vb = column(pair->second);
+  }
   char line[160];
   auto record_events = [&](double t) {
     const auto roots = integrator->roots();
@@ -200,7 +256,7 @@ RunResult run_case(const Case& c, const RunOptions& options) {
                       c.solver.step > 0 ? "the fixed step is too large" : "the solution diverged");
         throw IntegrationError(msg);
       }
-    const long steps = integrator->stats().steps;
+    const long steps = total_stats().steps;
     if (steps > c.solver.max_steps)
       throw IntegrationError("stopped at t = " + std::to_string(t) + " s after " +
                              std::to_string(steps) + " steps: more than [solver] max_steps");
@@ -217,14 +273,28 @@ RunResult run_case(const Case& c, const RunOptions& options) {
     }
   };
 
-  record(0.0);
+  auto flush_all = [&] {
+    friction.flush();
+    if (traces) traces->flush();
+    if (events_csv) events_csv->flush();
+    if (steps_csv) steps_csv->flush();
+  };
+
+  if (!resume) record(0.0);
   Progress progress(!options.quiet, c.run.t_end);
   const double t_end = c.run.t_end, t_avg = c.run.average_from, dt = c.output.interval;
   const long outputs = static_cast<long>(std::ceil(t_end / dt - 1e-9));
-  double impulse_at_avg = t_avg == 0.0 ? 0.0 : std::nan("");
+  double impulse_at_avg = resume ? resume->impulse_at_average : (t_avg == 0.0 ? 0.0 : std::nan(""));
   const std::int64_t impulse = system.quadrature_index(System::friction_impulse);
+  const double every = c.run.checkpoint_every;
+  double next_checkpoint = every > 0 ? (resume ? resume->t : 0.0) + every : kInfinity;
+  auto checkpoint = [&](double t, long k) {
+    flush_all();
+    write_checkpoint(dir, {t, k, impulse_at_avg, y, total_stats(), to_json(c), kGitCommit});
+  };
+  auto last_flush = Clock::now();
   try {
-    for (long k = 1; k <= outputs; ++k) {
+    for (long k = resume ? resume->output_index + 1 : 1; k <= outputs; ++k) {
       const double t_out = std::min(t_end, static_cast<double>(k) * dt);
       if (std::isnan(impulse_at_avg) && t_avg <= t_out) {
         // μ averages from t_avg exactly: stop there (interpolated, like every output).
@@ -234,13 +304,23 @@ RunResult run_case(const Case& c, const RunOptions& options) {
       advance_to(t_out);
       record(t_out);
       check_health(t_out);
-      progress.update(t_out, integrator->stats().steps);
+      progress.update(t_out, total_stats().steps);
+      if (g_stop_signal) {
+        const int sig = g_stop_signal;
+        checkpoint(t_out, k);
+        throw Interrupted{sig, t_out};
+      }
+      if (t_out >= next_checkpoint && k < outputs) {
+        checkpoint(t_out, k);
+        next_checkpoint += every;
+      }
+      if (seconds_since(last_flush) > kFlushSeconds) {
+        flush_all();
+        last_flush = Clock::now();
+      }
     }
   } catch (...) {
-    friction.flush();
-    if (traces) traces->flush();
-    if (events_csv) events_csv->flush();
-    if (steps_csv) steps_csv->flush();
+    flush_all();
     throw;
   }
 
@@ -250,7 +330,7 @@ RunResult run_case(const Case& c, const RunOptions& options) {
   result.normal_force = normal_force;
   result.mu = (y[impulse] - impulse_at_avg) / ((t_end - t_avg) * normal_force);
   result.energy_residual = system.energy_residual(t_end, y, y0);
-  result.stats = integrator->stats();
+  result.stats = total_stats();
   result.wall_seconds = seconds_since(wall_start);
 
   nlohmann::json summary = {
@@ -283,7 +363,9 @@ RunResult run_case(const Case& c, const RunOptions& options) {
     summary["synchronization"] = to_json(synchronization(events, pair->first, pair->second, window,
                                                          t_avg, t_end, pair_t, pair_va, pair_vb));
   }
-  write_json_atomically(options.out_dir / "summary.json", summary);
+  write_json_atomically(dir / "summary.json", summary);
+  // The run is complete: its checkpoint has nothing left to resume.
+  std::filesystem::remove(dir / kCheckpointFile);
   return result;
 }
 

@@ -67,6 +67,7 @@ struct RunParams {
   double t_end = 5e-3;         // [s]
   double average_from = 1e-3;  // t_avg [s]: μ averages F_f over [t_avg, t_end]
   InitialState initial = InitialState::rest;
+  double checkpoint_every = 0.0;  // [s] of simulated time between checkpoints; 0: none
 };
 
 struct SolverParams {

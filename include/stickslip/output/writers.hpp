@@ -24,9 +24,9 @@ class OutputError : public std::runtime_error {
 };
 
 // The files a run writes; a directory holding any of them holds results.
-inline constexpr const char* kOutputFiles[] = {"summary.json", "friction.csv", "contacts.csv",
-                                               "traces.csv",   "events.csv",   "steps.csv",
-                                               "compare.json"};
+inline constexpr const char* kOutputFiles[] = {"summary.json", "friction.csv",  "contacts.csv",
+                                               "traces.csv",   "events.csv",    "steps.csv",
+                                               "compare.json", "checkpoint.bin"};
 
 // Creates `dir` if needed. Refuses (OutputError) when it already holds results
 // and `overwrite` is false; with `overwrite`, removes only those result files.
@@ -35,16 +35,23 @@ void prepare_output_dir(const std::filesystem::path& dir, bool overwrite);
 class CsvWriter {
  public:
   CsvWriter(const std::filesystem::path& file, const std::vector<std::string>& header);
+  // Appends to an existing file (a restarted run), writing no header.
+  static CsvWriter append(const std::filesystem::path& file);
   // One row: values printed with 10 significant digits (times with 12).
   void row(double t, std::span<const double> values);
   void line(std::string_view text) { out_ << text << '\n'; }
   void flush() { out_.flush(); }
 
  private:
+  CsvWriter() = default;
   std::ofstream out_;
   std::filesystem::path file_;
   char buffer_[32];
 };
+
+// Drops the rows of a CSV file (first column: time) after `t`, keeping the
+// header: a restart continues from its checkpoint without duplicated rows.
+void keep_rows_up_to(const std::filesystem::path& file, double t);
 
 void write_json_atomically(const std::filesystem::path& file, const nlohmann::json& value);
 

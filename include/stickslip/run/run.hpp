@@ -12,8 +12,20 @@ namespace stickslip {
 struct RunOptions {
   std::filesystem::path out_dir;
   bool overwrite = false;
-  bool quiet = false;  // no progress on stderr
+  bool quiet = false;    // no progress on stderr
+  bool restart = false;  // continue the run in out_dir from its checkpoint
 };
+
+// Thrown when SIGINT or SIGTERM stopped a run, after its final checkpoint was
+// written and every output flushed.
+struct Interrupted {
+  int signal = 0;
+  double t = 0.0;
+};
+
+// SIGINT and SIGTERM then stop a run at its next output time instead of
+// killing it.
+void install_stop_handlers();
 
 struct RunResult {
   double mu = 0.0;

@@ -1,0 +1,40 @@
+#pragma once
+// Checkpoints of a run, so a kill or a crash never costs more than the time
+// since the last one. A checkpoint holds what cannot be re-read from the CSV
+// outputs: the time and state, the friction impulse at t_avg, the output row
+// reached, the solver statistics so far, and the case and code it belongs to.
+// Events and traces before it are recovered from events.csv and traces.csv.
+// Written atomically: a kill at any moment leaves the previous one whole.
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "stickslip/integrate/integrator.hpp"
+
+namespace stickslip {
+
+struct Checkpoint {
+  double t = 0.0;
+  long output_index = 0;            // rows k·interval written, k ≤ output_index
+  double impulse_at_average = 0.0;  // ∫F_f dt at average_from (NaN before it)
+  std::vector<double> state;
+  SolverStats stats;         // accumulated up to t
+  nlohmann::json case_json;  // the resolved case (without paths)
+  std::string git_commit;
+};
+
+inline constexpr const char* kCheckpointFile = "checkpoint.bin";
+
+void write_checkpoint(const std::filesystem::path& dir, const Checkpoint& c);
+// Throws OutputError naming the file when it is missing or not a checkpoint.
+Checkpoint read_checkpoint(const std::filesystem::path& dir);
+
+// The part of the resolved case that must match for a restart: everything but
+// where the case file and outputs live.
+nlohmann::json restart_identity(const nlohmann::json& case_json);
+
+SolverStats& operator+=(SolverStats& a, const SolverStats& b);
+
+}  // namespace stickslip

@@ -1,0 +1,110 @@
+#include "stickslip/output/checkpoint.hpp"
+
+#include <cmath>
+#include <fstream>
+
+#include "stickslip/output/writers.hpp"
+
+namespace stickslip {
+namespace {
+
+constexpr const char* kMagic = "stickslip-checkpoint 1";
+
+nlohmann::json stats_to_json(const SolverStats& s) {
+  return to_json(s);
+}
+
+SolverStats stats_from_json(const nlohmann::json& j) {
+  SolverStats s;
+  s.steps = j.at("steps");
+  s.step_attempts = j.at("step_attempts");
+  s.rhs_explicit = j.at("rhs_explicit");
+  s.rhs_implicit = j.at("rhs_implicit");
+  s.newton_iterations = j.at("newton_iterations");
+  s.convergence_failures = j.at("convergence_failures");
+  s.linear_setups = j.at("linear_setups");
+  s.jacobian_evaluations = j.at("jacobian_evaluations");
+  s.error_test_failures = j.at("error_test_failures");
+  s.root_evaluations = j.at("root_evaluations");
+  s.last_step = j.at("last_step");
+  return s;
+}
+
+}  // namespace
+
+SolverStats& operator+=(SolverStats& a, const SolverStats& b) {
+  a.steps += b.steps;
+  a.step_attempts += b.step_attempts;
+  a.rhs_explicit += b.rhs_explicit;
+  a.rhs_implicit += b.rhs_implicit;
+  a.newton_iterations += b.newton_iterations;
+  a.convergence_failures += b.convergence_failures;
+  a.linear_setups += b.linear_setups;
+  a.jacobian_evaluations += b.jacobian_evaluations;
+  a.error_test_failures += b.error_test_failures;
+  a.root_evaluations += b.root_evaluations;
+  if (b.last_step != 0.0) a.last_step = b.last_step;
+  return a;
+}
+
+nlohmann::json restart_identity(const nlohmann::json& case_json) {
+  nlohmann::json id = case_json;
+  id.erase("source");
+  if (id.contains("output")) id["output"].erase("dir");
+  if (id.contains("run")) id["run"].erase("checkpoint_every");  // may change between attempts
+  return id;
+}
+
+// Layout: a magic line, one line of JSON (everything but the state), then the
+// state as raw doubles; the state's length is in the JSON.
+void write_checkpoint(const std::filesystem::path& dir, const Checkpoint& c) {
+  const auto file = dir / kCheckpointFile;
+  const auto tmp = dir / (std::string(kCheckpointFile) + ".tmp");
+  const nlohmann::json header = {{"t", c.t},
+                                 {"output_index", c.output_index},
+                                 {"impulse_at_average", c.impulse_at_average},
+                                 {"state_size", c.state.size()},
+                                 {"stats", stats_to_json(c.stats)},
+                                 {"case", c.case_json},
+                                 {"git_commit", c.git_commit}};
+  {
+    std::ofstream out(tmp, std::ios::binary);
+    out << kMagic << '\n' << header.dump() << '\n';
+    out.write(reinterpret_cast<const char*>(c.state.data()),
+              static_cast<std::streamsize>(c.state.size() * sizeof(double)));
+    if (!out.flush()) throw OutputError(tmp.string() + ": cannot write checkpoint");
+  }
+  std::filesystem::rename(tmp, file);
+}
+
+Checkpoint read_checkpoint(const std::filesystem::path& dir) {
+  const auto file = dir / kCheckpointFile;
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw OutputError(file.string() + ": no checkpoint to restart from");
+  std::string magic, line;
+  std::getline(in, magic);
+  if (magic != kMagic) throw OutputError(file.string() + ": not a stickslip checkpoint");
+  std::getline(in, line);
+  Checkpoint c;
+  try {
+    // impulse_at_average is NaN before t_avg; JSON writes NaN as null.
+    const auto h = nlohmann::json::parse(line);
+    c.t = h.at("t");
+    c.output_index = h.at("output_index");
+    c.impulse_at_average = h.at("impulse_at_average").is_null()
+                               ? std::nan("")
+                               : h.at("impulse_at_average").get<double>();
+    c.state.resize(h.at("state_size").get<std::size_t>());
+    c.stats = stats_from_json(h.at("stats"));
+    c.case_json = h.at("case");
+    c.git_commit = h.at("git_commit");
+  } catch (const nlohmann::json::exception& e) {
+    throw OutputError(file.string() + ": damaged checkpoint header: " + e.what());
+  }
+  in.read(reinterpret_cast<char*>(c.state.data()),
+          static_cast<std::streamsize>(c.state.size() * sizeof(double)));
+  if (!in) throw OutputError(file.string() + ": truncated checkpoint");
+  return c;
+}
+
+}  // namespace stickslip
