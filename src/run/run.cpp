@@ -302,8 +302,8 @@ RunResult run_case(const Case& c, const RunOptions& options) {
         impulse_at_avg = y[impulse];
       }
       advance_to(t_out);
+      check_health(t_out);  // before the row is written: no NaN ever reaches an output
       record(t_out);
-      check_health(t_out);
       progress.update(t_out, total_stats().steps);
       if (g_stop_signal) {
         const int sig = g_stop_signal;
