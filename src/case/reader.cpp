@@ -101,7 +101,7 @@ struct TomlSyntaxError {
 // Decodes the UTF-8 sequence at s[i] into `cp`; returns its length, 0 if it is not valid UTF-8.
 std::size_t utf8_at(std::string_view s, std::size_t i, char32_t& cp) {
   const auto lead = static_cast<unsigned char>(s[i]);
-  const std::size_t n = lead < 0x80           ? 1
+  const std::size_t n = lead < 0x80             ? 1
                         : (lead & 0xe0) == 0xc0 ? 2
                         : (lead & 0xf0) == 0xe0 ? 3
                         : (lead & 0xf8) == 0xf0 ? 4
@@ -128,17 +128,23 @@ std::string code_point(char32_t cp) {
 // which is undefined behaviour, when it asks whether some non-ASCII characters
 // (U+00A1..U+0499 and others) are whitespace: upstream issues #190 and #295,
 // found here by scripts/fuzz. It asks for a non-ASCII character outside strings
-// and comments (always an error in TOML), for one right after a backslash in a
-// multi-line basic string (an invalid escape), and for the first character after
-// a line-ending backslash (valid TOML). So toml++ never sees those: this lexer
-// (strings and comments, TOML 1.0 rules) reports the first two as malformed TOML
-// and replaces the third by its \U escape, which means the same. Lines are kept.
+// and comments (always an error in TOML: toml++ reads a bare value such as
+// 4'§' up to the next whitespace, ',', ']', '}' or '#', quotes included), right
+// after a backslash in a multi-line basic string (an invalid escape), and first
+// after a line-ending backslash there (valid TOML). So toml++ never sees these:
+// the lexer below (TOML 1.0 strings, comments and where a string may start)
+// reports the first two as malformed TOML and replaces the third by its \U
+// escape, which means the same. Lines are kept, so messages stay right.
 toml::table parse_toml(std::string_view text, std::string_view source) {
   enum class State { normal, comment, basic, literal, ml_basic, ml_literal } state = State::normal;
-  std::string fixed;  // text[0, copied) with the escapes put in, once one is needed
-  std::size_t copied = 0;
+  enum class Next { key, value, other } next = Next::key;  // what may start here (normal state)
+  bool in_value = false;  // right of an '=', until the line or the inline table ends
+  std::string brackets;   // open ones: '[' array, 'h' table header, '{' inline table
+  char prev = '\n';       // the previous character outside strings and comments
   bool escaped = false;   // after a backslash in a basic string
   bool line_end = false;  // skipping whitespace after a line-ending backslash (ml_basic)
+  std::string fixed;      // text[0, copied) with the escapes put in, once one is needed
+  std::size_t copied = 0;
   std::size_t bad = text.size();  // where the error is, if any
   std::string what;
   std::uint32_t line = 1;
@@ -159,18 +165,83 @@ toml::table parse_toml(std::string_view text, std::string_view source) {
       bad = i;
       break;
     }
-    if (state == State::normal && cp >= 0x80) {
-      what = "unexpected character " + code_point(cp) + " outside a string or comment";
-      bad = i;
-      break;
-    }
-    if (state == State::ml_basic && escaped && cp >= 0x80) {
+    if (state == State::comment && ch == '\n') state = State::normal;
+    if (state == State::normal) {
+      if (cp >= 0x80) {
+        what = "unexpected character " + code_point(cp) + " outside a string or comment";
+        bad = i;
+        break;
+      }
+      const bool array = !brackets.empty() && brackets.back() == '[';
+      const bool table = !brackets.empty() && brackets.back() == '{';
+      switch (ch) {
+        case ' ':
+        case '\t':
+        case '\r':
+          break;
+        case '\n':
+          if (brackets.empty()) in_value = false, next = Next::key;
+          break;
+        case '#':
+          state = State::comment;
+          break;
+        case '=':
+          next = in_value ? Next::other : Next::value;
+          in_value = true;
+          break;
+        case '.':
+          next = in_value ? Next::other : Next::key;
+          break;
+        case ',':
+          if (table) in_value = false;
+          next = array ? Next::value : table ? Next::key : Next::other;
+          break;
+        case '[':
+          if (next == Next::value) {
+            brackets += '[';
+          } else if (!in_value && next == Next::key &&
+                     (brackets.empty() || (brackets.back() == 'h' && prev == '['))) {
+            brackets += 'h';
+          } else {
+            next = Next::other;
+          }
+          break;
+        case ']':
+          if (!brackets.empty() && !table) brackets.pop_back();
+          next = Next::other;
+          break;
+        case '{':
+          if (next == Next::value)
+            brackets += '{', in_value = false, next = Next::key;
+          else
+            next = Next::other;
+          break;
+        case '}':
+          if (table) brackets.pop_back(), in_value = true;
+          next = Next::other;
+          break;
+        case '"':
+        case '\'':
+          if (next != Next::other) {  // else it is read as part of a bare value: no string
+            const bool multi_line = run_of(i, ch) >= 3;
+            state = ch == '"' ? (multi_line ? State::ml_basic : State::basic)
+                              : (multi_line ? State::ml_literal : State::literal);
+            next = Next::other;
+            prev = ch;
+            i += multi_line ? 3 : 1;
+            continue;
+          }
+          break;
+        default:
+          next = Next::other;
+      }
+      prev = ch;
+    } else if (state == State::ml_basic && escaped && cp >= 0x80) {
       what = "unknown escape sequence '\\" + std::string(text.substr(i, len)) + "' (" +
              code_point(cp) + ")";
       bad = i;
       break;
-    }
-    if (escaped) {  // the character after a backslash is never special
+    } else if (escaped) {  // the character after a backslash is never special
       escaped = false;
       line_end = state == State::ml_basic && space;
     } else if (state == State::ml_basic && line_end && space) {
@@ -196,16 +267,6 @@ toml::table parse_toml(std::string_view text, std::string_view source) {
         escaped = true;
       else if (ch == (state == State::basic ? '"' : '\'') || ch == '\n')
         state = State::normal;  // at a newline, toml++ reports the unclosed string
-    } else if (state == State::comment) {
-      if (ch == '\n') state = State::normal;
-    } else if (ch == '#') {
-      state = State::comment;
-    } else if (ch == '"' || ch == '\'') {
-      const bool multi_line = run_of(i, ch) >= 3;
-      state = ch == '"' ? (multi_line ? State::ml_basic : State::basic)
-                        : (multi_line ? State::ml_literal : State::literal);
-      i += multi_line ? 3 : 1;
-      continue;
     }
     if (ch == '\n') ++line;
     i += len;
@@ -224,7 +285,7 @@ toml::table parse_toml(std::string_view text, std::string_view source) {
     if (state == State::literal) fixed += '\'';
     if (state == State::ml_basic) fixed += "\"\"\"";
     if (state == State::ml_literal) fixed += "'''";
-    toml::parse(fixed, source);
+    (void)toml::parse(fixed, source);
   } catch (const toml::parse_error& e) {
     if (bad == text.size() || e.source().begin.line < line)
       throw TomlSyntaxError{printable(e.description()), e.source().begin.line};
