@@ -3,64 +3,25 @@
 // saying what is wrong, and write nothing (DIR is never created). One row per
 // kind of mistake; adding one is adding a line to kRows.
 #include <sys/stat.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
-#include <algorithm>
-#include <atomic>
 #include <catch2/catch.hpp>
-#include <cstdlib>
 #include <filesystem>
-#include <fstream>
-#include <map>
-#include <sstream>
 #include <string>
 #include <vector>
+
+#include "sandbox.hpp"
 
 namespace fs = std::filesystem;
 using Catch::Contains;
 using Catch::StartsWith;
 
+using test::slurp;
+
 namespace {
 
-std::string slurp(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-std::string quote(const std::string& s) {  // for /bin/sh
-  std::string q = "'";
-  for (char ch : s) q += ch == '\'' ? std::string("'\\''") : std::string(1, ch);
-  return q + "'";
-}
-
-// A fresh working directory per run, removed afterwards (as in test_cli.cpp).
-struct Sandbox {
-  fs::path root, work;
-  Sandbox() {
-    static std::atomic<int> counter{0};
-    root = fs::temp_directory_path() /
-           ("stickslip_bad_input_" + std::to_string(getpid()) + "_" + std::to_string(counter++));
-    fs::remove_all(root);
-    work = root / "work";
-    fs::create_directories(work);
-  }
-  ~Sandbox() {
-    std::error_code ec;
-    fs::permissions(work / "readonly", fs::perms::owner_all, ec);
-    fs::remove_all(root, ec);
-  }
-  Sandbox(const Sandbox&) = delete;
-  Sandbox& operator=(const Sandbox&) = delete;
-
-  std::map<std::string, std::string> snapshot() const {  // every path under work, with contents
-    std::map<std::string, std::string> all;
-    for (const auto& e : fs::recursive_directory_iterator(work))
-      all[fs::relative(e.path(), work).string()] = e.is_directory() ? "<dir>" : slurp(e.path());
-    return all;
-  }
+// The shared sandbox, plus the check every row makes.
+struct Sandbox : test::Sandbox {
+  Sandbox() : test::Sandbox("stickslip_bad_input_") {}
 
   // Runs `run case_file --out out --quiet` in `work` and checks it is refused
   // as bad input: exit 2, one line on stderr starting with `where` and holding
@@ -68,19 +29,15 @@ struct Sandbox {
   void refused(const fs::path& case_file, const fs::path& out, const std::string& where,
                const std::string& message) const {
     const auto before = snapshot();
-    std::string cmd = "cd " + quote(work.string()) + " && " + quote(STICKSLIP_EXE) + " run " +
-                      quote(case_file.string()) + " --out " + quote(out.string()) + " --quiet >" +
-                      quote((root / "stdout").string()) + " 2>" + quote((root / "stderr").string());
-    const int status = std::system(cmd.c_str());
-    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    const std::string err = slurp(root / "stderr");
+    const auto r = run({"run", case_file.string(), "--out", out.string(), "--quiet"});
+    const std::string& err = r.err;
     INFO("stderr: " << err);
-    CHECK(code == 2);
+    CHECK(r.code == 2);
     CHECK(std::count(err.begin(), err.end(), '\n') == 1);
     CHECK((!err.empty() && err.back() == '\n'));
     CHECK_THAT(err, StartsWith("error: " + where));
     CHECK_THAT(err, Contains(message));
-    CHECK(slurp(root / "stdout").empty());
+    CHECK(r.out.empty());
     CHECK_FALSE(fs::exists(out));
     CHECK(snapshot() == before);
   }

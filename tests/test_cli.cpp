@@ -1,95 +1,20 @@
 // The command line, run as a real process: exit codes, one-line error messages
 // (file:line: section.key: what), and that bad input writes nothing at all.
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <algorithm>
-#include <atomic>
 #include <catch2/catch.hpp>
-#include <cstdlib>
 #include <filesystem>
-#include <fstream>
-#include <map>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <string>
 #include <vector>
+
+#include "sandbox.hpp"
 
 namespace fs = std::filesystem;
 using Catch::Contains;
 using Catch::StartsWith;
 
+using namespace test;
+
 namespace {
-
-std::string slurp(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-void spit(const fs::path& file, const std::string& text) {
-  std::ofstream(file, std::ios::binary) << text;
-}
-
-std::string quote(const std::string& s) {  // for /bin/sh
-  std::string q = "'";
-  for (char ch : s) q += ch == '\'' ? std::string("'\\''") : std::string(1, ch);
-  return q + "'";
-}
-
-std::size_t lines(const std::string& text) {
-  return static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n'));
-}
-
-struct Result {
-  int code;
-  std::string out, err;
-};
-
-// A fresh directory per test: `work` is the binary's working directory and holds
-// the case files and outputs; the captured stdout/stderr live beside it, so a
-// snapshot of `work` sees everything the program may have written.
-struct Sandbox {
-  fs::path root, work;
-  Sandbox() {
-    static std::atomic<int> counter{0};
-    root = fs::temp_directory_path() /
-           ("stickslip_cli_" + std::to_string(getpid()) + "_" + std::to_string(counter++));
-    fs::remove_all(root);
-    work = root / "work";
-    fs::create_directories(work);
-  }
-  ~Sandbox() {
-    std::error_code ec;
-    fs::remove_all(root, ec);
-  }
-  Sandbox(const Sandbox&) = delete;
-  Sandbox& operator=(const Sandbox&) = delete;
-
-  fs::path write(const std::string& name, const std::string& text) const {
-    spit(work / name, text);
-    return work / name;
-  }
-
-  Result run(const std::vector<std::string>& args) const {
-    std::string cmd = "cd " + quote(work.string()) + " && " + quote(STICKSLIP_EXE);
-    for (const auto& a : args) cmd += " " + quote(a);
-    cmd += " >" + quote((root / "stdout").string()) + " 2>" + quote((root / "stderr").string());
-    const int status = std::system(cmd.c_str());
-    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    return {code, slurp(root / "stdout"), slurp(root / "stderr")};
-  }
-
-  // Every file and directory under `work`, with the contents of the files.
-  std::map<std::string, std::string> snapshot() const {
-    std::map<std::string, std::string> all;
-    for (const auto& e : fs::recursive_directory_iterator(work))
-      all[fs::relative(e.path(), work).string()] =
-          e.is_directory() ? std::string("<dir>") : slurp(e.path());
-    return all;
-  }
-};
 
 const std::string kTiny =
     "[lattice]\nnx = 3\nny = 3\nnz = 2\n"
