@@ -37,6 +37,16 @@ TEST_CASE("an empty case file gives the defaults", "[case]") {
   CHECK(c.output.traces == ContactSelection::none);
 }
 
+TEST_CASE("atol_velocity defaults to 1e-4 of the drive speed, at most 1e-7", "[case]") {
+  CHECK(parse("").solver.atol_velocity == Approx(1e-7));  // the paper's v = 1e-3
+  CHECK(parse("[drive]\nvelocity = 1e-6").solver.atol_velocity == Approx(1e-10));
+  CHECK(parse("[drive]\nvelocity = 1e-2").solver.atol_velocity == Approx(1e-7));
+  CHECK(parse("[drive]\nvelocity = 0.0").solver.atol_velocity == Approx(1e-7));
+  CHECK(parse("[drive]\nvelocity = 1e-6\n[solver]\natol_velocity = 3e-9").solver.atol_velocity ==
+        Approx(3e-9));
+  CHECK(parse("", {"drive.velocity=4e-4"}).solver.atol_velocity == Approx(4e-8));
+}
+
 TEST_CASE("every key is read into its field", "[case]") {
   const Case c = parse(R"(
 [lattice]
@@ -74,6 +84,7 @@ rtol = 1e-5
 atol_displacement = 1e-11
 atol_velocity = 1e-8
 max_steps = 1000
+audit_bound = 1e-3
 [output]
 dir = "out/x"
 interval = 2e-6
@@ -107,6 +118,7 @@ traces = "all"
   CHECK(c.solver.atol_displacement == 1e-11);
   CHECK(c.solver.atol_velocity == 1e-8);
   CHECK(c.solver.max_steps == 1000);
+  CHECK(c.solver.audit_bound == 1e-3);
   CHECK(c.output.dir == std::filesystem::path("cases/out/x"));  // relative to the case file
   CHECK(c.output.interval == 2e-6);
   CHECK(c.output.traces == ContactSelection::all);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "stickslip/analysis/compare.hpp"
 #include "stickslip/integrate/integrator.hpp"
@@ -225,4 +226,66 @@ TEST_CASE("steps.csv lists every accepted step with its size and error", "[metho
     CHECK(rows == r.stats.steps);
     CHECK(t_prev == Approx(c.run.t_end).epsilon(1e-12));
   }
+}
+
+namespace {
+
+// Two contacts of Fig. 10 on a small lattice, from rest.
+Case two_contacts() {
+  Case c;
+  c.lattice = {6, 6, 4, 1e-4};
+  c.interface.contacts = {{1, 2, 4.75e-4, 0}, {4, 2, 2.09e-3, 0}};
+  c.run.t_end = 3e-3;
+  c.run.average_from = 1e-3;
+  return c;
+}
+
+}  // namespace
+
+TEST_CASE("max_steps caps the steps of the whole run exactly", "[methods][max_steps]") {
+  Case c = two_contacts();
+  c.solver.max_steps = 700;  // the run needs thousands
+  TempDir dir("stickslip_test_max_steps");
+  for (Method m : {Method::imex, Method::bdf})
+    for (bool steps : {false, true}) {
+      c.solver.method = m;
+      c.output.steps = steps;  // bdf then runs one step per CVode call
+      RunOptions options{dir.path / (std::string(to_string(m)) + (steps ? "_steps" : "")), false,
+                         true};
+      INFO(to_string(m) << (steps ? " with steps.csv" : ""));
+      CHECK_THROWS_WITH(run_case(c, options), Catch::Contains("after 700 steps") &&
+                                                  Catch::Contains("max_steps") &&
+                                                  Catch::Contains("t = "));
+      CHECK_FALSE(fs::exists(options.out_dir / "summary.json"));
+      if (steps) {
+        std::ifstream in(options.out_dir / "steps.csv");
+        long rows = -1;  // the header
+        for (std::string line; std::getline(in, line);) ++rows;
+        CHECK(rows == 700);
+      }
+    }
+}
+
+TEST_CASE("a run whose energy audit exceeds the bound reports no mu", "[methods][audit]") {
+  Case c = two_contacts();
+  c.run.t_end = 2e-4;
+  c.run.average_from = 1e-4;
+  TempDir dir("stickslip_test_audit");
+  RunOptions options{dir.path / "default", false, true};
+  const RunResult ok = run_case(c, options);
+  const auto summary = nlohmann::json::parse(std::ifstream(options.out_dir / "summary.json"));
+  CHECK(summary.at("energy_audit_bound").get<double>() == Approx(100 * c.solver.rtol));
+  CHECK(std::abs(ok.energy_residual) < 100 * c.solver.rtol);
+
+  // Held to a bound no integration meets. Below one absolute energy
+  // tolerance a residual is not judged (k1 a atol_u = 3e-14 J at the default
+  // atol_u, more than this short run's error), so atol_u is tightened too.
+  c.solver.audit_bound = 1e-12;
+  c.solver.atol_displacement = 1e-15;
+  c.run.t_end = 1e-3;
+  options.out_dir = dir.path / "strict";
+  CHECK_THROWS_WITH(run_case(c, options),
+                    Catch::Contains("energy audit failed at t = ") && Catch::Contains("1e-12"));
+  CHECK_FALSE(fs::exists(options.out_dir / "summary.json"));
+  CHECK(fs::exists(options.out_dir / "friction.csv"));  // the rows computed are kept
 }

@@ -92,3 +92,43 @@ TEST_CASE("a run stopped by SIGTERM and restarted agrees with an uninterrupted o
   for (const auto& e : r.events) CHECK(e.max_dt < 1e-7);  // 1/30 of a slip's duration
   fs::remove_all(box);
 }
+
+TEST_CASE("SIGTERM inside a long output interval stops the run at once and it restarts",
+          "[restart]") {
+  const fs::path box = fs::temp_directory_path() / "stickslip_test_restart_mid";
+  fs::remove_all(box);
+  fs::create_directories(box);
+  // One output row at the end: before, the run answered a signal only there.
+  std::ofstream(box / "two.toml") << kCase;
+  const std::string exe = STICKSLIP_EXE, dir = box.string();
+  const std::string sets = " --set output.interval=3e-3 --set run.checkpoint_every=0";
+
+  REQUIRE(shell("cd " + dir + " && " + exe + " run two.toml --out full --quiet" + sets +
+                " >/dev/null") == 0);
+  const int stopped = shell("cd " + dir + " && (" + exe + " run two.toml --out part --quiet" +
+                            sets +
+                            " >/dev/null 2>stop.txt & pid=$!; "
+                            "while [ ! -f part/friction.csv ]; do sleep 0.02; done; sleep 0.3; "
+                            "kill -TERM $pid; wait $pid)");
+  REQUIRE(stopped == 143);
+  std::ifstream note(box / "stop.txt");
+  const std::string message((std::istreambuf_iterator<char>(note)), {});
+  INFO(message);
+  const auto at = message.find("interrupted at t = ");
+  REQUIRE(at != std::string::npos);
+  const double t_stop = std::strtod(message.c_str() + at + 19, nullptr);
+  CHECK(t_stop > 0.0);
+  CHECK(t_stop < 3e-3);  // mid-interval, not at the only output time
+  CHECK(fs::exists(box / "part" / "checkpoint.bin"));
+  CHECK(first_column(box / "part" / "friction.csv") == std::vector<double>{0.0});
+
+  REQUIRE(shell("cd " + dir + " && " + exe + " run two.toml --restart part --quiet" + sets +
+                " >/dev/null") == 0);
+  CHECK(first_column(box / "part" / "friction.csv") ==
+        first_column(box / "full" / "friction.csv"));
+  const CompareResult r = compare_runs(box / "full", box / "part", 2e-2);
+  INFO(to_json(r).dump(1));
+  CHECK(r.mu_rel_diff < 1e-5);
+  for (const auto& e : r.events) CHECK(e.max_dt < 1e-7);
+  fs::remove_all(box);
+}

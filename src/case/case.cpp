@@ -1,8 +1,14 @@
 #include "stickslip/case/case.hpp"
 
+#include <algorithm>
+
 #include <nlohmann/json.hpp>
 
 namespace stickslip {
+
+double default_atol_velocity(double drive_velocity) {
+  return drive_velocity > 0 ? std::min(1e-7, 1e-4 * drive_velocity) : 1e-7;
+}
 
 const char* to_string(GradDiv g) {
   switch (g) {
@@ -90,7 +96,8 @@ nlohmann::json to_json(const Case& c) {
         {"rtol", s.rtol},
         {"atol_displacement", s.atol_displacement},
         {"atol_velocity", s.atol_velocity},
-        {"max_steps", s.max_steps}}},
+        {"max_steps", s.max_steps},
+        {"audit_bound", s.audit_bound}}},
       {"output",
        {{"dir", c.output.dir.string()},
         {"interval", c.output.interval},

@@ -551,6 +551,8 @@ const std::vector<Entry>& schema() {
        real(&Case::solver, &SolverParams::atol_velocity, kPositive)},
       {"solver", "max_steps", "over the whole run",
        integer(&Case::solver, &SolverParams::max_steps, 1)},
+      {"solver", "audit_bound", "largest accepted |energy residual| (default 100 x rtol)",
+       real(&Case::solver, &SolverParams::audit_bound, kPositive)},
       {"output", "dir", "relative to the case file", read_dir},
       {"output", "interval", "[s] between output rows",
        real(&Case::output, &OutputParams::interval, kPositive)},
@@ -736,6 +738,8 @@ Case parse_case(std::string_view toml_text, const std::filesystem::path& source,
   c.source = source;
   read_tables(r, root, c);
   check_consistency(r, c);
+  if (!r.given.count("solver.atol_velocity"))
+    c.solver.atol_velocity = default_atol_velocity(c.drive.velocity);
   if (!c.output.dir.empty() && c.output.dir.is_relative())
     c.output.dir = source.parent_path() / c.output.dir;
   return c;

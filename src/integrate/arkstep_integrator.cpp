@@ -4,6 +4,7 @@
 #include <arkode/arkode_butcher.h>
 #include <sunlinsol/sunlinsol_klu.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <utility>
@@ -40,7 +41,8 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
   atol_ = make_serial_vector(absolute_tolerances(system, solver), ctx_);
   check(ARKStepSVtolerances(arkode_mem_, solver.rtol, atol_.get()), "ARKStepSVtolerances");
   check(ARKStepSetStopTime(arkode_mem_, t_stop), "ARKStepSetStopTime");
-  check(ARKStepSetMaxNumSteps(arkode_mem_, solver.max_steps), "ARKStepSetMaxNumSteps");
+  check(ARKStepSetErrHandlerFn(arkode_mem_, print_solver_message, nullptr),
+        "ARKStepSetErrHandlerFn");
 
   if (m == Method::rk4) {
     ARKodeButcherTable table = classic_rk4();
@@ -132,9 +134,26 @@ int ArkStepIntegrator::after_step(double t, N_Vector, void* self) {
 
 double ArkStepIntegrator::advance(double t_out, std::span<double> y) {
   double t = 0.0;
-  const int flag = ARKStepEvolve(arkode_mem_, t_out, y_.get(), &t, ARK_NORMAL);
-  if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
-  if (flag < 0) {
+  int flag = ARK_SUCCESS;
+  // At most kPollSteps steps per call, so poll() is asked between them and
+  // max_steps holds exactly over the whole run.
+  for (;;) {
+    long taken = 0;
+    ARKStepGetNumSteps(arkode_mem_, &taken);
+    if (taken >= solver_.max_steps) {
+      double now = 0.0, last = 0.0;
+      ARKStepGetCurrentTime(arkode_mem_, &now);
+      ARKStepGetLastStep(arkode_mem_, &last);
+      throw IntegrationError(describe_out_of_steps(now, taken, last));
+    }
+    check(ARKStepSetMaxNumSteps(arkode_mem_, std::min(kPollSteps, solver_.max_steps - taken)),
+          "ARKStepSetMaxNumSteps");
+    flag = ARKStepEvolve(arkode_mem_, t_out, y_.get(), &t, ARK_NORMAL);
+    if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
+    if (flag != ARK_TOO_MUCH_WORK) break;
+    if (options_.poll && options_.poll()) break;  // y_ holds the state at t, the last step's end
+  }
+  if (flag < 0 && flag != ARK_TOO_MUCH_WORK) {
     NVectorPtr err(N_VClone(y_.get())), weights(N_VClone(y_.get()));
     const bool have = ARKStepGetEstLocalErrors(arkode_mem_, err.get()) >= 0 &&
                       ARKStepGetErrWeights(arkode_mem_, weights.get()) >= 0;
@@ -147,7 +166,7 @@ double ArkStepIntegrator::advance(double t_out, std::span<double> y) {
     check(ARKStepGetRootInfo(arkode_mem_, roots_.data()), "ARKStepGetRootInfo");
   const auto values = as_span(y_.get());
   std::copy(values.begin(), values.end(), y.begin());
-  return flag == ARK_ROOT_RETURN ? t : t_out;
+  return flag == ARK_ROOT_RETURN || flag == ARK_TOO_MUCH_WORK ? t : t_out;
 }
 
 SolverStats ArkStepIntegrator::stats() const {

@@ -3,6 +3,7 @@
 #include <cvode/cvode.h>
 #include <sunlinsol/sunlinsol_klu.h>
 
+#include <algorithm>
 #include <limits>
 #include <utility>
 
@@ -28,7 +29,7 @@ CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solve
   atol_ = make_serial_vector(absolute_tolerances(system, solver), ctx_);
   check(CVodeSVtolerances(cvode_mem_, solver.rtol, atol_.get()), "CVodeSVtolerances");
   check(CVodeSetStopTime(cvode_mem_, t_stop), "CVodeSetStopTime");
-  check(CVodeSetMaxNumSteps(cvode_mem_, solver.max_steps), "CVodeSetMaxNumSteps");
+  check(CVodeSetErrHandlerFn(cvode_mem_, print_solver_message, nullptr), "CVodeSetErrHandlerFn");
   check(CVodeSetMaxOrd(cvode_mem_, max_order_), "CVodeSetMaxOrd");
   if (max_order_ >= 3) check(CVodeSetStabLimDet(cvode_mem_, SUNTRUE), "CVodeSetStabLimDet");
 
@@ -90,22 +91,43 @@ void CvodeIntegrator::record_step() {
 }
 
 // CVODE has no hook after each step, so when steps are recorded it is driven
-// one step at a time (CV_ONE_STEP) and output times are interpolated.
+// one step at a time (CV_ONE_STEP) and output times are interpolated. Either
+// way at most kPollSteps steps are taken between calls of poll(), and
+// max_steps holds exactly over the whole run.
 double CvodeIntegrator::advance(double t_out, std::span<double> y) {
   double t = 0.0;
   int flag = CV_SUCCESS;
+  long since_poll = 0;
   for (;;) {
+    long taken = 0;
+    CVodeGetNumSteps(cvode_mem_, &taken);
+    if (taken >= solver_.max_steps) {
+      double now = 0.0, last = 0.0;
+      CVodeGetCurrentTime(cvode_mem_, &now);
+      CVodeGetLastStep(cvode_mem_, &last);
+      throw IntegrationError(describe_out_of_steps(now, taken, last));
+    }
     double t_now = 0.0;
     CVodeGetCurrentTime(cvode_mem_, &t_now);
     const bool one_step = options_.on_step && t_now < t_out;
+    const long chunk = std::min(kPollSteps - since_poll, solver_.max_steps - taken);
+    check(CVodeSetMaxNumSteps(cvode_mem_, chunk), "CVodeSetMaxNumSteps");
     flag = CVode(cvode_mem_, t_out, y_.get(), &t, one_step ? CV_ONE_STEP : CV_NORMAL);
     if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
-    if (flag < 0) break;
-    if (one_step) record_step();  // also when the step hit t_stop or held a root
-    if (one_step && flag == CV_SUCCESS) continue;
+    if (flag < 0 && flag != CV_TOO_MUCH_WORK) break;
+    if (one_step && flag != CV_TOO_MUCH_WORK) record_step();  // also at t_stop or a root
+    since_poll = flag == CV_TOO_MUCH_WORK ? kPollSteps : since_poll + (one_step ? 1 : 0);
+    if (since_poll >= kPollSteps) {
+      since_poll = 0;
+      if (options_.poll && options_.poll()) {
+        flag = CV_TOO_MUCH_WORK;  // stop here: y_ holds the state at t, the last step's end
+        break;
+      }
+    }
+    if (flag == CV_TOO_MUCH_WORK || (one_step && flag == CV_SUCCESS)) continue;
     break;
   }
-  if (flag < 0) {
+  if (flag < 0 && flag != CV_TOO_MUCH_WORK) {
     NVectorPtr err(N_VClone(y_.get())), weights(N_VClone(y_.get()));
     const bool have = CVodeGetEstLocalErrors(cvode_mem_, err.get()) >= 0 &&
                       CVodeGetErrWeights(cvode_mem_, weights.get()) >= 0;
@@ -117,7 +139,7 @@ double CvodeIntegrator::advance(double t_out, std::span<double> y) {
     check(CVodeGetRootInfo(cvode_mem_, roots_.data()), "CVodeGetRootInfo");
   const auto values = as_span(y_.get());
   std::copy(values.begin(), values.end(), y.begin());
-  return flag == CV_ROOT_RETURN ? t : t_out;
+  return flag == CV_ROOT_RETURN || flag == CV_TOO_MUCH_WORK ? t : t_out;
 }
 
 SolverStats CvodeIntegrator::stats() const {

@@ -34,4 +34,16 @@ inline std::string describe_failure(const System& system, const char* call, cons
   return msg;
 }
 
+// The run used up [solver] max_steps. Which components limit the step is not
+// known here (the last local error estimate belongs to an accepted step), so
+// the message gives where it stopped and how small the steps had become.
+inline std::string describe_out_of_steps(double t, long steps, double last_step) {
+  char buf[240];
+  std::snprintf(buf, sizeof buf,
+                "stopped at t = %.9g s after %ld steps: more than [solver] max_steps (last step "
+                "%.3g s)",
+                t, steps, last_step);
+  return buf;
+}
+
 }  // namespace stickslip

@@ -3,6 +3,7 @@
 #include <sunmatrix/sunmatrix_sparse.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <string>
 #include <type_traits>
 
@@ -17,6 +18,14 @@ void check(int flag, const char* call) {
 
 void check_created(const void* p, const char* call) {
   if (p == nullptr) throw IntegrationError(std::string(call) + " returned NULL");
+}
+
+void print_solver_message(int error_code, const char* module, const char* function, char* msg,
+                          void*) {
+  constexpr int kTooMuchWork = -1;  // ARK_TOO_MUCH_WORK and CV_TOO_MUCH_WORK
+  if (error_code == kTooMuchWork) return;
+  std::fprintf(stderr, "[%s %s] %s: %s\n", module, error_code < 0 ? "ERROR" : "WARNING", function,
+               msg);
 }
 
 SunContext::SunContext() {

@@ -39,15 +39,27 @@ struct StepRecord {
 struct IntegratorOptions {
   std::vector<int> watched_contacts;               // stick/slip root functions, none if empty
   std::function<void(const StepRecord&)> on_step;  // called after every accepted step, if set
+  // Called every kPollSteps steps inside advance(); when it returns true,
+  // advance() returns at the end of the last accepted step. This is how a
+  // run stalled inside one output interval still answers SIGINT/SIGTERM and
+  // flushes its outputs.
+  std::function<bool()> poll;
 };
+
+// Steps between calls of IntegratorOptions::poll: small enough that a stop
+// request is answered within seconds even on a 60×60×10 lattice, large
+// enough that returning to the caller costs nothing measurable.
+inline constexpr long kPollSteps = 500;
 
 class Integrator {
  public:
   virtual ~Integrator() = default;
   // Integrates toward t_out and returns the time reached: t_out, or earlier
-  // when a watched contact starts or stops slipping (then roots() says which).
-  // y receives the state at the returned time; output times are interpolated
-  // and never shape the step sequence.
+  // when a watched contact starts or stops slipping (then roots() says which),
+  // or when poll() asked to stop (then every root is 0). y receives the state
+  // at the returned time; output times are interpolated and never shape the
+  // step sequence. More than [solver] max_steps steps in all (counted from
+  // this integrator's start) throw IntegrationError.
   virtual double advance(double t_out, std::span<double> y) = 0;
   // After advance returned early: per watched contact +1 (slip), −1 (stick), 0.
   virtual std::span<const int> roots() const = 0;

@@ -62,6 +62,12 @@ void copy_into(const SparseJacobian& jac, SUNMatrix m);
 // A CSR SUNSparseMatrix shaped for `jac`.
 MatrixPtr make_sparse_matrix(const SparseJacobian& jac, SUNContext ctx);
 
+// Error handler for ARKODE and CVODE: prints their messages like the default
+// handler, except "too much work" (flag −1 in both), which the adapters use
+// on purpose to return every kPollSteps steps.
+void print_solver_message(int error_code, const char* module, const char* function, char* msg,
+                          void* user_data);
+
 inline std::span<double> as_span(N_Vector v) {
   return {N_VGetArrayPointer_Serial(v), static_cast<std::size_t>(N_VGetLength_Serial(v))};
 }
