@@ -8,6 +8,8 @@
 
 #include "stickslip/case/reader.hpp"
 
+#include "toml_text.hpp"
+
 #include <toml++/toml.h>
 
 #include <algorithm>
@@ -27,11 +29,10 @@
 #include <utility>
 
 namespace stickslip {
-namespace {
+namespace toml_text {
 
 using namespace std::string_literals;
 
-constexpr std::string_view kOverride = "--set";
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // The fewest %g digits that read back as x: 0.0005, 1e-12, 0.1 (not 0.10000000000000001).
@@ -88,15 +89,6 @@ std::string suggest(std::string_view name, const std::vector<std::string_view>& 
   return " (valid: " + all + ")";
 }
 
-bool from_override(const toml::node& n) {
-  return n.source().path && *n.source().path == kOverride;
-}
-
-// A TOML syntax error, from toml++ or from parse_toml below.
-struct TomlSyntaxError {
-  std::string description;
-  std::uint32_t line;
-};
 
 // Decodes the UTF-8 sequence at s[i] into `cp`; returns its length, 0 if it is not valid UTF-8.
 std::size_t utf8_at(std::string_view s, std::size_t i, char32_t& cp) {
@@ -291,6 +283,19 @@ toml::table parse_toml(std::string_view text, std::string_view source) {
       throw TomlSyntaxError{printable(e.description()), e.source().begin.line};
   }
   throw TomlSyntaxError{what, line};
+}
+
+}  // namespace toml_text
+
+namespace {
+
+using namespace std::string_literals;
+using namespace toml_text;
+
+constexpr std::string_view kOverride = "--set";
+
+bool from_override(const toml::node& n) {
+  return n.source().path && *n.source().path == kOverride;
 }
 
 // The state of one parse: the source name for messages, and the nodes that the
@@ -722,6 +727,16 @@ void check_consistency(const Reader& r, const Case& c) {
 }
 
 }  // namespace
+
+std::string case_key_problem(std::string_view dotted_key) {
+  const auto dot = dotted_key.find('.');
+  if (dot == std::string_view::npos || dot == 0 || dot + 1 == dotted_key.size())
+    return "expected section.key, got '" + printable(dotted_key) + "'";
+  const auto section = dotted_key.substr(0, dot), key = dotted_key.substr(dot + 1);
+  if (keys_of(section).empty()) return unknown_section(section);
+  if (!find_entry(section, key)) return unknown_key(section, key);
+  return {};
+}
 
 Case parse_case(std::string_view toml_text, const std::filesystem::path& source,
                 const std::vector<std::string>& overrides) {

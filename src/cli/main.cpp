@@ -1,9 +1,13 @@
 // stickslip: parse → build → integrate → write. Exit codes: 0 success,
 // 1 the integration failed, 2 bad input (case file, options, output directory).
 // `stickslip compare`: 0 within tolerance, 1 beyond it, 2 bad input
-// (stickslip/analysis/compare.hpp).
+// (stickslip/analysis/compare.hpp). `stickslip sweep`: 0 every point
+// finished, 1 some failed, 2 bad input, 130/143 interrupted.
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <cstdlib>
+#include <thread>
+#include <unistd.h>
 #include <filesystem>
 #include <iostream>
 #include <string>
@@ -14,6 +18,12 @@
 #include "stickslip/integrate/sundials.hpp"
 #include "stickslip/output/writers.hpp"
 #include "stickslip/run/run.hpp"
+#include "stickslip/sweep/sweep.hpp"
+#include "stickslip/version.hpp"
+
+#ifdef STICKSLIP_WITH_MPI
+#include <mpi.h>
+#endif
 
 namespace {
 
@@ -59,6 +69,99 @@ int run_command(const std::string& case_file, const std::string& out, const std:
   }
 }
 
+// Under mpirun (built with MPI), the ranks share a sweep's points; started
+// any other way the sweep is one process and MPI is never initialized.
+class MpiWorld {
+ public:
+  MpiWorld() {
+#ifdef STICKSLIP_WITH_MPI
+    if (std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE") || std::getenv("PMIX_RANK")) {
+      MPI_Init(nullptr, nullptr);
+      active_ = true;
+      MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+      MPI_Comm_size(MPI_COMM_WORLD, &size_);
+    }
+#endif
+  }
+  ~MpiWorld() {
+#ifdef STICKSLIP_WITH_MPI
+    if (active_) MPI_Finalize();
+#endif
+  }
+  MpiWorld(const MpiWorld&) = delete;
+  MpiWorld& operator=(const MpiWorld&) = delete;
+  void barrier() const {
+#ifdef STICKSLIP_WITH_MPI
+    if (active_) MPI_Barrier(MPI_COMM_WORLD);
+#endif
+  }
+  int rank() const { return rank_; }
+  int size() const { return size_; }
+
+ private:
+  bool active_ = false;
+  int rank_ = 0, size_ = 1;
+};
+
+int sweep_command(const std::string& sweep_file, const std::string& out, int jobs,
+                  const std::vector<std::string>& sets, bool overwrite) {
+  using namespace stickslip;
+  try {
+    const Sweep sweep = read_sweep(sweep_file, sets);
+    const auto points = sweep_points(sweep);
+    SweepOptions options;
+    options.out_dir = out.empty() ? std::filesystem::path("out") / sweep.source.stem()
+                                  : std::filesystem::path(out);
+    options.overwrite = overwrite;
+    options.executable = std::filesystem::read_symlink("/proc/self/exe");
+    std::error_code ec;
+    std::filesystem::create_directories(options.out_dir, ec);
+    if (ec)
+      throw OutputError(options.out_dir.string() + ": cannot create output directory: " +
+                        ec.message());
+    if (access(options.out_dir.c_str(), W_OK) != 0)
+      throw OutputError(options.out_dir.string() + ": output directory is not writable");
+
+    MpiWorld world;
+    options.rank = world.rank();
+    options.ranks = world.size();
+    options.jobs = jobs > 0 ? jobs
+                   : world.size() > 1
+                       ? 1
+                       : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    if (world.rank() == 0)
+      std::printf("sweep %s: %zu points (%zu axes), %d job%s%s, outputs in %s\n",
+                  sweep_file.c_str(), points.size(), sweep.axes.size(), options.jobs,
+                  options.jobs == 1 ? "" : "s",
+                  world.size() > 1 ? (" on each of " + std::to_string(world.size()) + " MPI ranks").c_str()
+                                   : "",
+                  options.out_dir.c_str());
+    std::fflush(stdout);
+    const SweepOutcome outcome = run_sweep(sweep, points, options, std::cout);
+    world.barrier();
+    if (outcome.interrupted_by) {
+      std::fprintf(stderr, "sweep interrupted: run the same command again to continue\n");
+      if (world.rank() == 0) write_sweep_tables(sweep, points, options.out_dir);
+      return 128 + outcome.interrupted_by;
+    }
+    if (world.rank() != 0) return outcome.failed > 0 ? 1 : 0;
+    const std::size_t finished = write_sweep_tables(sweep, points, options.out_dir);
+    std::printf("%zu of %zu points finished (%zu already were); tables: %s, %s\n", finished,
+                points.size(), outcome.skipped, (options.out_dir / "sweep.csv").c_str(),
+                (options.out_dir / "sweep_summary.csv").c_str());
+    return finished == points.size() ? 0 : 1;
+  } catch (const CaseError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const OutputError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -88,6 +191,19 @@ int main(int argc, char** argv) {
   compare->add_option("dir_b", dir_b, "output directory of run B")->required();
   compare->add_option("--rtol", rtol, "relative tolerance (default 1e-2)");
   compare->add_option("--out", compare_out, "JSON report (default DIR_B/compare.json)");
+  std::string sweep_file, sweep_out;
+  std::vector<std::string> sweep_sets;
+  int jobs = 0;
+  bool sweep_overwrite = false;
+  CLI::App* sweep = app.add_subcommand(
+      "sweep", "run every combination of a sweep file's values; skips points already finished");
+  sweep->add_option("sweep_file", sweep_file, "the sweep file (TOML)")->required();
+  sweep->add_option("--out", sweep_out, "output directory (default out/<sweep name>)");
+  sweep->add_option("--jobs", jobs, "points run at once (default: the number of cores; 1 per MPI rank)")
+      ->check(CLI::PositiveNumber);
+  sweep->add_option("--set", sweep_sets, "override a case value for every point (repeatable)");
+  sweep->add_flag("--overwrite", sweep_overwrite,
+                  "recompute points computed by another code version or for another case");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -97,6 +213,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (*run) return run_command(case_file, out, restart, sets, overwrite, quiet);
+  if (*sweep) return sweep_command(sweep_file, sweep_out, jobs, sweep_sets, sweep_overwrite);
   if (*compare)
     return stickslip::compare_command(dir_a, dir_b, rtol, compare_out, std::cout, std::cerr);
   return 2;

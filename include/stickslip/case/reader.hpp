@@ -29,4 +29,8 @@ Case read_case(const std::filesystem::path& file, const std::vector<std::string>
 Case parse_case(std::string_view toml_text, const std::filesystem::path& source,
                 const std::vector<std::string>& overrides = {});
 
+// Empty if "section.key" names a case key; otherwise why not, with the
+// nearest valid name ("unknown key 'covrage' (did you mean 'coverage'?)").
+std::string case_key_problem(std::string_view dotted_key);
+
 }  // namespace stickslip

@@ -1,0 +1,221 @@
+// Sweep-file reader (the format is in stickslip/sweep/sweep.hpp). Every value
+// is checked against the base case before anything runs, and every error
+// names the sweep file, the line and the key, like the case reader's.
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "stickslip/case/reader.hpp"
+#include "stickslip/sweep/sweep.hpp"
+#include "toml_text.hpp"
+
+namespace stickslip {
+namespace {
+
+using namespace toml_text;
+namespace fs = std::filesystem;
+
+struct SweepReader {
+  std::string source;
+  [[noreturn]] void fail(const toml::node& n, const std::string& key,
+                         const std::string& what) const {
+    throw CaseError(source + ":" + std::to_string(n.source().begin.line) + ": " + key + ": " +
+                    what);
+  }
+  [[noreturn]] void fail(const std::string& what) const { throw CaseError(source + ": " + what); }
+};
+
+// A value as --set takes it (TOML), and as a label for directories and CSV.
+std::pair<std::string, std::string> value_text(const toml::node& v) {
+  if (auto f = v.value_exact<double>()) return {fmt(*f), fmt(*f)};
+  if (auto i = v.value_exact<std::int64_t>()) return {std::to_string(*i), std::to_string(*i)};
+  if (auto s = v.value_exact<std::string>()) {
+    std::ostringstream quoted;
+    quoted << toml::value<std::string>(*s);
+    return {quoted.str(), *s};
+  }
+  std::ostringstream text;
+  if (auto* a = v.as_array())
+    text << *a;
+  else if (auto* t = v.as_table())
+    text << *t;
+  else if (auto b = v.value_exact<bool>())
+    text << (*b ? "true" : "false");
+  std::string label = text.str();
+  label.erase(std::remove_if(label.begin(), label.end(), [](char c) { return c == ' ' || c == '\n'; }),
+              label.end());
+  return {text.str(), label};
+}
+
+// Flattens [vary] or [set]: nested tables (from dotted keys) become "a.b".
+void leaves(const toml::table& t, const std::string& prefix,
+            std::vector<std::pair<std::string, const toml::node*>>& out) {
+  for (auto&& [k, v] : t) {
+    const std::string key = prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
+    if (auto* sub = v.as_table(); sub && !prefix.empty()) {
+      out.emplace_back(key, &v);  // a table value of a case key (not used by any key today)
+    } else if (sub) {
+      leaves(*sub, key, out);
+    } else {
+      out.emplace_back(key, &v);
+    }
+  }
+  std::stable_sort(out.begin(), out.end(), [](const auto& a, const auto& b) {
+    return a.second->source().begin.line < b.second->source().begin.line;
+  });
+}
+
+std::string sanitized(std::string s) {
+  for (char& c : s)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '=' || c == '+' ||
+          c == '-' || c == '_'))
+      c = '-';
+  return s;
+}
+
+}  // namespace
+
+Sweep read_sweep(const fs::path& file, const std::vector<std::string>& extra_sets) {
+  SweepReader r{printable(file.string())};
+  std::error_code ec;
+  if (fs::is_directory(file, ec)) r.fail("cannot read sweep file: it is a directory");
+  std::ifstream in(file, std::ios::binary);
+  if (!in) r.fail(std::string("cannot read sweep file: ") + std::strerror(errno));
+  std::ostringstream text;
+  text << in.rdbuf();
+  toml::table root;
+  try {
+    root = parse_toml(text.str(), std::string_view(file.native()));
+  } catch (const TomlSyntaxError& e) {
+    throw CaseError(r.source + ":" + std::to_string(e.line) + ": malformed TOML: " +
+                    e.description);
+  }
+
+  Sweep sweep;
+  sweep.source = file;
+  for (auto&& [k, v] : root) {
+    const std::string name(k.str());
+    if (name != "sweep" && name != "vary" && name != "set")
+      r.fail(v, printable(name),
+             "unknown section" + suggest(name, {"sweep", "vary", "set"}));
+    if (!v.is_table())
+      r.fail(v, name, "expected a table [" + name + "], got " + type_name(v));
+  }
+  const toml::table* head = root["sweep"].as_table();
+  if (!head) r.fail("missing [sweep] with case = \"<base case file>\"");
+  bool have_case = false;
+  for (auto&& [k, v] : *head) {
+    const std::string key = "sweep." + printable(k.str());
+    if (k.str() == "case") {
+      auto s = v.value_exact<std::string>();
+      if (!s || s->empty()) r.fail(v, key, "expected the base case file (a string)");
+      sweep.base_case = fs::path(*s).is_absolute() ? fs::path(*s) : file.parent_path() / *s;
+      have_case = true;
+    } else if (k.str() == "average_over") {
+      auto s = v.value_exact<std::string>();
+      if (!s) r.fail(v, key, "expected a case key such as \"interface.seed\"");
+      if (auto problem = case_key_problem(*s); !problem.empty()) r.fail(v, key, problem);
+      sweep.average_over = *s;
+    } else {
+      r.fail(v, key, "unknown key" + suggest(k.str(), {"case", "average_over"}));
+    }
+  }
+  if (!have_case) r.fail(*head, "sweep", "missing case = \"<base case file>\"");
+
+  std::vector<std::pair<std::string, const toml::node*>> fixed, varied;
+  if (auto* t = root["set"].as_table()) leaves(*t, "", fixed);
+  if (auto* t = root["vary"].as_table()) leaves(*t, "", varied);
+  if (varied.empty()) r.fail(*head, "vary", "a sweep needs [vary] with at least one key");
+
+  std::set<std::string> seen;
+  auto check_key = [&](const std::string& section, const std::string& key, const toml::node& v) {
+    const std::string where = section + "." + printable(key);
+    if (auto problem = case_key_problem(key); !problem.empty()) r.fail(v, where, problem);
+    if (key == "output.dir")
+      r.fail(v, where, "each point writes to its own directory in the sweep's output; use --out");
+    if (!seen.insert(key).second) r.fail(v, where, "is given twice (in [set] and [vary]?)");
+  };
+  for (const auto& [key, v] : fixed) {
+    check_key("set", key, *v);
+    sweep.fixed.push_back(key + "=" + value_text(*v).first);
+  }
+  for (const auto& s : extra_sets) sweep.fixed.push_back(s);
+
+  // The base case with [set] and --set: its own errors name its own file.
+  try {
+    (void)read_case(sweep.base_case, sweep.fixed);
+  } catch (const CaseError& e) {
+    throw CaseError(std::string(e.what()) + " (base case of " + r.source + ")");
+  }
+
+  for (const auto& [key, v] : varied) {
+    check_key("vary", key, *v);
+    const std::string where = "vary." + printable(key);
+    const auto* list = v->as_array();
+    if (!list || list->empty()) r.fail(*v, where, "expected a non-empty list of values");
+    SweepAxis axis{key, {}, {}, static_cast<int>(v->source().begin.line)};
+    for (const auto& item : *list) {
+      auto [toml_value, label] = value_text(item);
+      if (std::find(axis.labels.begin(), axis.labels.end(), label) != axis.labels.end())
+        r.fail(item, where, "repeats the value " + label);
+      auto overrides = sweep.fixed;
+      overrides.push_back(key + "=" + toml_value);
+      try {
+        (void)read_case(sweep.base_case, overrides);
+      } catch (const CaseError& e) {
+        r.fail(item, where, "value " + label + " is refused by the case: " + e.what());
+      }
+      axis.values.push_back(std::move(toml_value));
+      axis.labels.push_back(std::move(label));
+    }
+    sweep.axes.push_back(std::move(axis));
+  }
+  // Checks between keys (average_from < t_end, ...) need whole points.
+  for (auto& point : sweep_points(sweep)) (void)point;
+  return sweep;
+}
+
+std::vector<SweepPoint> sweep_points(const Sweep& sweep) {
+  // Short names in directories ("coverage=0.1") unless two axes share one.
+  std::vector<std::string> names;
+  for (const auto& a : sweep.axes) names.push_back(a.key.substr(a.key.rfind('.') + 1));
+  for (std::size_t i = 0; i < names.size(); ++i)
+    if (std::count(names.begin(), names.end(), names[i]) > 1) names[i] = sweep.axes[i].key;
+
+  std::size_t total = 1;
+  for (const auto& a : sweep.axes) total *= a.values.size();
+  std::vector<SweepPoint> points;
+  points.reserve(total);
+  for (std::size_t index = 0; index < total; ++index) {
+    SweepPoint p;
+    p.index = index;
+    p.overrides = sweep.fixed;
+    std::size_t rest = index, stride = total;
+    for (std::size_t i = 0; i < sweep.axes.size(); ++i) {
+      const auto& a = sweep.axes[i];
+      stride /= a.values.size();
+      const std::size_t k = rest / stride;
+      rest %= stride;
+      p.labels.push_back(a.labels[k]);
+      p.overrides.push_back(a.key + "=" + a.values[k]);
+      if (i > 0) p.name += '_';
+      p.name += sanitized(names[i] + '=' + a.labels[k]);
+    }
+    try {
+      p.c = read_case(sweep.base_case, p.overrides);
+    } catch (const CaseError& e) {
+      throw CaseError(printable(sweep.source.string()) + ": point " + p.name +
+                      " is refused by the case: " + e.what());
+    }
+    points.push_back(std::move(p));
+  }
+  return points;
+}
+
+}  // namespace stickslip

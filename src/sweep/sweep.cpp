@@ -1,0 +1,356 @@
+#include "stickslip/sweep/sweep.hpp"
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <ostream>
+#include <sstream>
+
+#include "stickslip/output/checkpoint.hpp"
+#include "stickslip/output/writers.hpp"
+#include "stickslip/version.hpp"
+
+extern char** environ;
+
+namespace stickslip {
+namespace {
+
+namespace fs = std::filesystem;
+
+volatile std::sig_atomic_t g_sweep_signal = 0;
+extern "C" void request_sweep_stop(int sig) {
+  g_sweep_signal = sig;
+}
+
+std::optional<nlohmann::json> read_summary(const fs::path& dir) {
+  std::ifstream in(dir / "summary.json");
+  if (!in) return std::nullopt;
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception&) {
+    return std::nullopt;  // cut short: not a finished point
+  }
+}
+
+// The last non-empty line of a point's run.log: why it failed.
+std::string last_line(const fs::path& file) {
+  std::ifstream in(file);
+  std::string line, last;
+  while (std::getline(in, line))
+    if (!line.empty()) last = line;
+  return last;
+}
+
+std::string csv_field(std::string s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+std::string number(const nlohmann::json& j) {
+  if (!j.is_number()) return "";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.10g", j.get<double>());
+  return buf;
+}
+
+void write_atomically(const fs::path& file, const std::string& text) {
+  const fs::path tmp = file.string() + ".tmp";
+  {
+    std::ofstream out(tmp);
+    out << text;
+    if (!out) throw OutputError(tmp.string() + ": cannot write");
+  }
+  fs::rename(tmp, file);
+}
+
+// Starts `stickslip run` for one point, its output in <dir>/run.log.
+pid_t spawn_point(const Sweep& sweep, const SweepPoint& p, const fs::path& dir,
+                  const fs::path& exe, bool restart) {
+  std::vector<std::string> args = {exe.string(), "run", sweep.base_case.string(), "--quiet"};
+  if (restart) {
+    args.insert(args.end(), {"--restart", dir.string()});
+  } else {
+    args.insert(args.end(), {"--out", dir.string(), "--overwrite"});
+  }
+  for (const auto& o : p.overrides) args.insert(args.end(), {"--set", o});
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  const std::string log = (dir / "run.log").string();
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(),
+                                   O_WRONLY | O_CREAT | (restart ? O_APPEND : O_TRUNC), 0644);
+  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+  pid_t pid = 0;
+  const int err = posix_spawn(&pid, exe.c_str(), &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (err != 0)
+    throw OutputError(exe.string() + ": cannot start a point: " + std::strerror(err));
+  return pid;
+}
+
+}  // namespace
+
+const char* to_string(PointState s) {
+  switch (s) {
+    case PointState::absent: return "not run";
+    case PointState::incomplete: return "incomplete";
+    case PointState::finished: return "finished";
+    case PointState::stale: return "stale";
+    case PointState::failed: return "failed";
+  }
+  return "?";
+}
+
+PointState point_state(const SweepPoint& point, const fs::path& dir, std::string* why) {
+  const auto summary = read_summary(dir);
+  if (!summary) {
+    if (fs::exists(dir / "failed")) return PointState::failed;
+    return fs::exists(dir / "friction.csv") ? PointState::incomplete : PointState::absent;
+  }
+  const auto commit = summary->value(nlohmann::json::json_pointer("/provenance/git_commit"), std::string());
+  if (commit != kGitCommit) {
+    if (why) *why = "computed by code version " + commit + ", this is " + kGitCommit;
+    return PointState::stale;
+  }
+  if (!summary->contains("case") ||
+      restart_identity((*summary)["case"]) != restart_identity(to_json(point.c))) {
+    if (why) *why = "computed for a different case (the base case or [set] changed)";
+    return PointState::stale;
+  }
+  return PointState::finished;
+}
+
+std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>& points,
+                               const fs::path& out_dir) {
+  std::vector<std::optional<nlohmann::json>> summaries;
+  bool any_sync = false;
+  for (const auto& p : points) {
+    const fs::path dir = out_dir / p.name;
+    summaries.push_back(point_state(p, dir) == PointState::finished ? read_summary(dir)
+                                                                    : std::nullopt);
+    any_sync = any_sync || (summaries.back() && summaries.back()->contains("synchronization"));
+  }
+
+  std::ostringstream table;
+  table << "point";
+  for (const auto& a : sweep.axes) table << ',' << a.key;
+  table << ",status,mu,theta,contacts,F_N,energy_residual,slips,mean_recurrence,"
+           "slipping_fraction";
+  const char* const sync_columns[] = {"slip_rate_ratio", "lag_mean", "lag_min", "lag_max",
+                                      "coincident_fraction", "xcorr_peak", "xcorr_lag"};
+  if (any_sync)
+    for (const char* c : sync_columns) table << ',' << c;
+  table << ",steps,rhs_explicit,rhs_implicit,wall_seconds,git_commit,error\n";
+
+  std::size_t finished = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const auto& p = points[i];
+    table << csv_field(p.name);
+    for (const auto& label : p.labels) table << ',' << csv_field(label);
+    const fs::path dir = out_dir / p.name;
+    if (!summaries[i]) {
+      const PointState state = point_state(p, dir);
+      table << ',' << to_string(state) << std::string(any_sync ? 21 : 14, ',')
+            << csv_field(state == PointState::failed ? last_line(dir / "run.log") : "") << '\n';
+      continue;
+    }
+    ++finished;
+    const auto& s = *summaries[i];
+    // Slip statistics over the watched contacts: total slips, mean recurrence
+    // and slipping fraction averaged over the contacts that define them.
+    long slips = 0;
+    double recurrence = 0, fraction = 0;
+    int n_rec = 0, n_frac = 0;
+    if (s.contains("events"))
+      for (const auto& c : s["events"]["per_contact"]) {
+        slips += c.value("slips", 0L);
+        if (c["mean_recurrence"].is_number()) recurrence += c["mean_recurrence"].get<double>(), ++n_rec;
+        if (c["slipping_fraction"].is_number())
+          fraction += c["slipping_fraction"].get<double>(), ++n_frac;
+      }
+    table << ",finished," << number(s["mu"]) << ',' << number(s["theta"]) << ','
+          << number(s["contacts"]) << ',' << number(s["F_N"]) << ','
+          << number(s["energy_residual"]) << ',' << (s.contains("events") ? std::to_string(slips) : "")
+          << ',' << (n_rec ? number(recurrence / n_rec) : "") << ','
+          << (n_frac ? number(fraction / n_frac) : "");
+    if (any_sync)
+      for (const char* c : sync_columns)
+        table << ',' << (s.contains("synchronization") ? number(s["synchronization"][c]) : "");
+    const auto& st = s["solver_stats"];
+    table << ',' << number(st["steps"]) << ',' << number(st["rhs_explicit"]) << ','
+          << number(st["rhs_implicit"]) << ',' << number(s["wall_seconds"]) << ','
+          << s["provenance"]["git_commit"].get<std::string>() << ",\n";
+  }
+  write_atomically(out_dir / "sweep.csv", table.str());
+
+  // μ over `average_over` for every combination of the other axes.
+  std::size_t avg_axis = sweep.axes.size();
+  for (std::size_t i = 0; i < sweep.axes.size(); ++i)
+    if (sweep.axes[i].key == sweep.average_over) avg_axis = i;
+  std::map<std::vector<std::size_t>, std::vector<double>> groups;  // axis value indices -> μ
+  std::map<std::vector<std::size_t>, std::vector<double>> thetas;
+  std::vector<std::vector<std::size_t>> order;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    std::vector<std::size_t> key;
+    for (std::size_t a = 0; a < sweep.axes.size(); ++a) {
+      if (a == avg_axis) continue;
+      const auto& labels = sweep.axes[a].labels;
+      key.push_back(static_cast<std::size_t>(
+          std::find(labels.begin(), labels.end(), points[i].labels[a]) - labels.begin()));
+    }
+    if (!groups.count(key)) order.push_back(key);
+    auto& mus = groups[key];
+    if (summaries[i] && (*summaries[i])["mu"].is_number()) {
+      mus.push_back((*summaries[i])["mu"].get<double>());
+      thetas[key].push_back((*summaries[i])["theta"].get<double>());
+    }
+  }
+  std::ostringstream summary;
+  bool first = true;
+  for (std::size_t a = 0; a < sweep.axes.size(); ++a)
+    if (a != avg_axis) summary << (first ? "" : ",") << sweep.axes[a].key, first = false;
+  summary << (first ? "" : ",") << "theta_mean,mu_mean,mu_std,mu_sem,count\n";
+  for (const auto& key : order) {
+    std::size_t k = 0;
+    for (std::size_t a = 0; a < sweep.axes.size(); ++a)
+      if (a != avg_axis) summary << csv_field(sweep.axes[a].labels[key[k++]]) << ',';
+    const auto& mus = groups[key];
+    const auto n = static_cast<double>(mus.size());
+    double mean = 0, var = 0, theta = 0;
+    for (double m : mus) mean += m / n;
+    for (double m : mus) var += (m - mean) * (m - mean);
+    for (double t : thetas[key]) theta += t / n;
+    const double sd = mus.size() > 1 ? std::sqrt(var / (n - 1)) : NAN;
+    auto num = [](double x) { return std::isfinite(x) ? number(x) : std::string(); };
+    summary << (mus.empty() ? "" : num(theta)) << ',' << (mus.empty() ? "" : num(mean)) << ','
+            << num(sd) << ',' << num(sd / std::sqrt(n)) << ',' << mus.size() << '\n';
+  }
+  write_atomically(out_dir / "sweep_summary.csv", summary.str());
+  return finished;
+}
+
+SweepOutcome run_sweep(const Sweep& sweep, const std::vector<SweepPoint>& points,
+                       const SweepOptions& options, std::ostream& log) {
+  SweepOutcome outcome;
+  outcome.points = points.size();
+  // Stale results are never mixed in, nor silently replaced.
+  std::vector<std::size_t> todo;
+  std::string stale;
+  std::size_t n_stale = 0;
+  for (const auto& p : points) {
+    std::string why;
+    const PointState state = point_state(p, options.out_dir / p.name, &why);
+    if (state == PointState::finished) {
+      ++outcome.skipped;
+      continue;
+    }
+    if (state == PointState::stale && !options.overwrite) {
+      if (n_stale++ == 0) stale = (options.out_dir / p.name).string() + ": " + why;
+      continue;
+    }
+    if (p.index % static_cast<std::size_t>(options.ranks) ==
+        static_cast<std::size_t>(options.rank))
+      todo.push_back(p.index);
+  }
+  if (n_stale > 0)
+    throw OutputError(stale + (n_stale > 1 ? " (and " + std::to_string(n_stale - 1) +
+                                                 " more points)"
+                                           : std::string()) +
+                      "; pass --overwrite to recompute them");
+
+  struct Running {
+    std::size_t index;
+    bool restart;
+  };
+  std::map<pid_t, Running> running;
+  g_sweep_signal = 0;
+  // Without SA_RESTART, so a signal interrupts waitpid below.
+  struct sigaction stop = {}, old_int = {}, old_term = {};
+  stop.sa_handler = request_sweep_stop;
+  sigemptyset(&stop.sa_mask);
+  sigaction(SIGINT, &stop, &old_int);
+  sigaction(SIGTERM, &stop, &old_term);
+  std::size_t next = 0;
+  bool forwarded = false;
+  auto start = [&](std::size_t index, bool restart) {
+    const auto& p = points[index];
+    const fs::path dir = options.out_dir / p.name;
+    fs::create_directories(dir);
+    fs::remove(dir / "failed");
+    running[spawn_point(sweep, p, dir, options.executable, restart)] = {index, restart};
+  };
+  while (next < todo.size() || !running.empty()) {
+    while (!g_sweep_signal && next < todo.size() &&
+           running.size() < static_cast<std::size_t>(std::max(1, options.jobs))) {
+      const auto& p = points[todo[next]];
+      // A point stopped earlier continues from its checkpoint.
+      start(todo[next++], fs::exists(options.out_dir / p.name / kCheckpointFile));
+    }
+    int status = 0;
+    const pid_t pid = waitpid(-1, &status, 0);
+    if (pid < 0) {
+      if (errno == EINTR) {
+        // Children in our process group got a terminal's SIGINT themselves;
+        // a SIGTERM sent to the sweep alone is passed on.
+        if (g_sweep_signal == SIGTERM && !forwarded) {
+          for (const auto& [child, r] : running) kill(child, SIGTERM);
+          forwarded = true;
+        }
+        continue;
+      }
+      break;
+    }
+    const auto it = running.find(pid);
+    if (it == running.end()) continue;
+    const Running r = it->second;
+    running.erase(it);
+    const auto& p = points[r.index];
+    const fs::path dir = options.out_dir / p.name;
+    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    if (code == 2 && r.restart && !g_sweep_signal) {
+      // The checkpoint is from another code version or case: start afresh.
+      start(r.index, false);
+      continue;
+    }
+    ++outcome.ran;
+    std::string line = "[" + std::to_string(outcome.ran) + "/" + std::to_string(todo.size()) +
+                       "] " + p.name + ": ";
+    if (code == 0) {
+      const auto s = read_summary(dir);
+      char buf[128];
+      std::snprintf(buf, sizeof buf, "mu = %.6f (%.1f s)", s ? (*s)["mu"].get<double>() : NAN,
+                    s ? (*s)["wall_seconds"].get<double>() : NAN);
+      line += buf;
+    } else if (code == 130 || code == 143) {
+      line += "interrupted; a checkpoint is kept";
+    } else {
+      ++outcome.failed;
+      std::ofstream(dir / "failed") << code << '\n';
+      line += "failed (exit " + std::to_string(code) + "): " + last_line(dir / "run.log");
+    }
+    log << line << std::endl;
+  }
+  sigaction(SIGINT, &old_int, nullptr);
+  sigaction(SIGTERM, &old_term, nullptr);
+  outcome.interrupted_by = g_sweep_signal;
+  return outcome;
+}
+
+}  // namespace stickslip

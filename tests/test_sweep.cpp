@@ -1,0 +1,235 @@
+// `stickslip sweep` through the real binary: the rows a sweep makes, what a
+// second start runs (nothing, or only the unfinished points), stale results
+// refused, MPI ranks against local jobs, and bad sweep files.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "sandbox.hpp"
+
+using test::Sandbox;
+using test::slurp;
+namespace fs = std::filesystem;
+
+namespace {
+
+// 6×6×4, 0.3 ms: a point takes well under a second.
+const char* kBase = R"([lattice]
+nx = 6
+ny = 6
+nz = 4
+[run]
+t_end = 3e-4
+average_from = 1e-4
+[output]
+interval = 1e-5
+)";
+
+const char* kTiny = R"([sweep]
+case = "base.toml"
+[vary]
+interface.coverage = [0.2, 0.5]
+interface.seed = [1, 2]
+)";
+
+std::vector<std::vector<std::string>> csv(const fs::path& file) {
+  std::vector<std::vector<std::string>> rows;
+  std::istringstream in(slurp(file));
+  for (std::string line; std::getline(in, line);) {
+    std::vector<std::string> row;
+    std::istringstream fields(line);
+    for (std::string f; std::getline(fields, f, ',');) row.push_back(f);
+    if (!line.empty() && line.back() == ',') row.emplace_back();
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+std::size_t column(const std::vector<std::vector<std::string>>& rows, const std::string& name) {
+  const auto& h = rows.at(0);
+  const auto it = std::find(h.begin(), h.end(), name);
+  REQUIRE(it != h.end());
+  return static_cast<std::size_t>(it - h.begin());
+}
+
+fs::file_time_type mtime(const fs::path& p) {
+  return fs::last_write_time(p);
+}
+
+}  // namespace
+
+TEST_CASE("a sweep runs every combination once, and started again only what is unfinished",
+          "[sweep]") {
+  Sandbox box;
+  box.write("base.toml", kBase);
+  box.write("tiny.toml", kTiny);
+  const auto first = box.run({"sweep", "tiny.toml", "--jobs", "2"});
+  INFO(first.out << first.err);
+  REQUIRE(first.code == 0);
+  const fs::path out = box.work / "out" / "tiny";
+  auto rows = csv(out / "sweep.csv");
+  REQUIRE(rows.size() == 5);  // header and 4 points, first axis slowest
+  const auto cov = column(rows, "interface.coverage"), seed = column(rows, "interface.seed"),
+             status = column(rows, "status"), mu = column(rows, "mu");
+  const std::vector<std::pair<std::string, std::string>> expected = {
+      {"0.2", "1"}, {"0.2", "2"}, {"0.5", "1"}, {"0.5", "2"}};
+  for (std::size_t i = 0; i < 4; ++i) {
+    CHECK(rows[i + 1][cov] == expected[i].first);
+    CHECK(rows[i + 1][seed] == expected[i].second);
+    CHECK(rows[i + 1][status] == "finished");
+    // Each row is its point's own result, and that point ran the right case.
+    const fs::path dir = out / rows[i + 1][0];
+    const auto summary = nlohmann::json::parse(slurp(dir / "summary.json"));
+    CHECK(std::stod(rows[i + 1][mu]) == Approx(summary["mu"].get<double>()).epsilon(1e-9));
+    CHECK(summary["case"]["interface"]["coverage"].get<double>() == std::stod(expected[i].first));
+    CHECK(summary["case"]["interface"]["seed"].get<int>() == std::stoi(expected[i].second));
+  }
+
+  // sweep_summary.csv: μ over the seeds at each coverage.
+  const auto means = csv(out / "sweep_summary.csv");
+  REQUIRE(means.size() == 3);
+  CHECK(means[0][0] == "interface.coverage");
+  for (std::size_t g = 0; g < 2; ++g) {
+    const double a = std::stod(rows[2 * g + 1][mu]), b = std::stod(rows[2 * g + 2][mu]);
+    CHECK(std::stod(means[g + 1][column(means, "mu_mean")]) == Approx((a + b) / 2).epsilon(1e-9));
+    CHECK(std::stod(means[g + 1][column(means, "mu_std")]) ==
+          Approx(std::abs(a - b) / std::sqrt(2.0)).epsilon(1e-6));  // μ printed to 10 digits
+    CHECK(means[g + 1][column(means, "count")] == "2");
+  }
+
+  // Started again: nothing runs, no result is touched.
+  const auto stamp = mtime(out / "coverage=0.5_seed=2" / "summary.json");
+  const auto again = box.run({"sweep", "tiny.toml", "--jobs", "2"});
+  CHECK(again.code == 0);
+  CHECK_THAT(again.out, Catch::Contains("4 already were"));
+  CHECK(mtime(out / "coverage=0.5_seed=2" / "summary.json") == stamp);
+
+  // A point whose summary is cut short (a crash while writing) is run again, alone.
+  const std::string whole = slurp(out / "coverage=0.2_seed=2" / "summary.json");
+  test::spit(out / "coverage=0.2_seed=2" / "summary.json", whole.substr(0, whole.size() / 2));
+  const auto resumed = box.run({"sweep", "tiny.toml", "--jobs", "2"});
+  INFO(resumed.out << resumed.err);
+  CHECK(resumed.code == 0);
+  CHECK_THAT(resumed.out, Catch::Contains("3 already were"));
+  CHECK_THAT(resumed.out, Catch::Contains("coverage=0.2_seed=2: mu ="));
+  CHECK(mtime(out / "coverage=0.5_seed=2" / "summary.json") == stamp);
+  auto rerun = csv(out / "sweep.csv");
+  const auto wall = column(rows, "wall_seconds");
+  for (auto* table : {&rows, &rerun})
+    for (auto& row : *table) row.at(wall).clear();
+  CHECK(rerun == rows);  // the same μ and statistics again: a run is deterministic
+}
+
+TEST_CASE("a sweep refuses results of another code version or case unless told to recompute",
+          "[sweep]") {
+  Sandbox box;
+  box.write("base.toml", kBase);
+  box.write("tiny.toml", kTiny);
+  REQUIRE(box.run({"sweep", "tiny.toml", "--jobs", "2"}).code == 0);
+  const fs::path point = box.work / "out" / "tiny" / "coverage=0.5_seed=1";
+  auto summary = nlohmann::json::parse(slurp(point / "summary.json"));
+  summary["provenance"]["git_commit"] = "0000000";
+  test::spit(point / "summary.json", summary.dump());
+
+  const auto refused = box.run({"sweep", "tiny.toml"});
+  CHECK(refused.code == 2);
+  CHECK_THAT(refused.err, Catch::Contains("coverage=0.5_seed=1") &&
+                              Catch::Contains("code version 0000000") &&
+                              Catch::Contains("--overwrite"));
+  CHECK(nlohmann::json::parse(slurp(point / "summary.json"))["provenance"]["git_commit"] ==
+        "0000000");  // untouched
+
+  // A changed base case makes every point stale.
+  box.write("base.toml", std::string(kBase) + "[drive]\nvelocity = 2e-3\n");
+  const auto changed = box.run({"sweep", "tiny.toml"});
+  CHECK(changed.code == 2);
+  CHECK_THAT(changed.err, Catch::Contains("different case") && Catch::Contains("3 more points"));
+
+  const auto redone = box.run({"sweep", "tiny.toml", "--overwrite"});
+  INFO(redone.out << redone.err);
+  CHECK(redone.code == 0);
+  CHECK_THAT(redone.out, Catch::Contains("0 already were"));
+  summary = nlohmann::json::parse(slurp(point / "summary.json"));
+  CHECK(summary["case"]["drive"]["velocity"].get<double>() == 2e-3);
+}
+
+TEST_CASE("mpirun -n 2 gives the same sweep.csv as --jobs 2", "[sweep][mpi]") {
+#ifndef STICKSLIP_MPIEXEC
+  WARN("built without MPI: not tested");
+#else
+  Sandbox box;
+  box.write("base.toml", kBase);
+  box.write("tiny.toml", kTiny);
+  REQUIRE(box.run({"sweep", "tiny.toml", "--jobs", "2", "--out", "jobs"}).code == 0);
+  // OpenMPI refuses to run as root unless told; --oversubscribe for 1-core machines.
+  const std::string cmd = "cd " + test::quote(box.work.string()) +
+                          " && OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 " +
+                          STICKSLIP_MPIEXEC + " -n 2 --oversubscribe " +
+                          test::quote(STICKSLIP_EXE) +
+                          " sweep tiny.toml --out mpi >mpi.txt 2>&1";
+  const int status = std::system(cmd.c_str());
+  INFO(slurp(box.work / "mpi.txt"));
+  REQUIRE(WIFEXITED(status));
+  REQUIRE(WEXITSTATUS(status) == 0);
+  CHECK_THAT(slurp(box.work / "mpi.txt"), Catch::Contains("on each of 2 MPI ranks"));
+  auto a = csv(box.work / "jobs" / "sweep.csv"), b = csv(box.work / "mpi" / "sweep.csv");
+  const auto wall = column(a, "wall_seconds");
+  for (auto* rows : {&a, &b})
+    for (auto& row : *rows) row.at(wall).clear();  // the only column that may differ
+  CHECK(a == b);
+  CHECK(slurp(box.work / "jobs" / "sweep_summary.csv") ==
+        slurp(box.work / "mpi" / "sweep_summary.csv"));
+#endif
+}
+
+TEST_CASE("bad sweep files are refused: exit 2, file, line and key, nothing run", "[sweep][bad_input]") {
+  Sandbox box;
+  box.write("base.toml", kBase);
+  struct Row {
+    const char* name;
+    std::string text;
+    std::vector<const char*> message;
+  };
+  const std::vector<Row> rows = {
+      {"a sweep key that does not exist",
+       "[sweep]\ncase = \"base.toml\"\n[vary]\ninterface.covrage = [0.2, 0.5]\n",
+       {"s.toml:4: vary.interface.covrage: unknown key 'covrage' (did you mean 'coverage'?)"}},
+      {"a section that does not exist", "[sweep]\ncase = \"base.toml\"\n[vary]\nlatice.nx = [4]\n",
+       {"s.toml:4: vary.latice.nx: unknown section 'latice' (did you mean 'lattice'?)"}},
+      {"a value the case refuses",
+       "[sweep]\ncase = \"base.toml\"\n[vary]\ninterface.coverage = [0.2,\n  1.5]\n",
+       {"s.toml:5: vary.interface.coverage: value 1.5", "must be in (0, 1]"}},
+      {"a combination the case refuses",
+       "[sweep]\ncase = \"base.toml\"\n[vary]\nrun.t_end = [2e-4, 4e-4]\nrun.average_from = [1e-4, "
+       "2.5e-4]\n",
+       {"s.toml: point t_end=0.0002_average_from=0.00025", "average_from"}},
+      {"no values", "[sweep]\ncase = \"base.toml\"\n[vary]\ninterface.seed = []\n",
+       {"s.toml:4: vary.interface.seed: expected a non-empty list of values"}},
+      {"a repeated value", "[sweep]\ncase = \"base.toml\"\n[vary]\ninterface.seed = [1, 2, 1]\n",
+       {"s.toml:4: vary.interface.seed: repeats the value 1"}},
+      {"no base case", "[sweep]\n[vary]\ninterface.seed = [1]\n",
+       {"s.toml:1: sweep: missing case"}},
+      {"a missing base case", "[sweep]\ncase = \"nope.toml\"\n[vary]\ninterface.seed = [1]\n",
+       {"nope.toml: cannot read case file", "(base case of s.toml)"}},
+      {"output.dir swept", "[sweep]\ncase = \"base.toml\"\n[vary]\noutput.dir = [\"a\", \"b\"]\n",
+       {"s.toml:4: vary.output.dir: each point writes to its own directory"}},
+      {"average_over not a key",
+       "[sweep]\ncase = \"base.toml\"\naverage_over = \"interface.sed\"\n[vary]\ninterface.seed = "
+       "[1]\n",
+       {"s.toml:3: sweep.average_over: unknown key 'sed' (did you mean 'seed'?)"}},
+      {"malformed TOML", "[sweep]\ncase = \"base.toml\n", {"s.toml:2: malformed TOML"}},
+  };
+  for (const auto& row : rows) {
+    SECTION(row.name) {
+      box.write("s.toml", row.text);
+      const auto before = box.snapshot();
+      const auto r = box.run({"sweep", "s.toml"});
+      INFO(r.err);
+      CHECK(r.code == 2);
+      CHECK(test::lines(r.err) == 1);
+      for (const char* m : row.message) CHECK_THAT(r.err, Catch::Contains(m));
+      CHECK(box.snapshot() == before);  // nothing written, nothing run
+    }
+  }
+}
