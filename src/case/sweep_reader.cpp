@@ -157,11 +157,24 @@ Sweep read_sweep(const fs::path& file, const std::vector<std::string>& extra_set
   for (const auto& [key, v] : varied) {
     check_key("vary", key, *v);
     const std::string where = "vary." + printable(key);
-    const auto* list = v->as_array();
-    if (!list || list->empty()) r.fail(*v, where, "expected a non-empty list of values");
+    // A list of values, or a table of labelled values (for values whose own
+    // text makes a poor directory name: { dx1 = [...], dx7 = [...] }).
+    std::vector<std::pair<std::string, const toml::node*>> items;
+    if (const auto* list = v->as_array()) {
+      for (const auto& item : *list) items.emplace_back(value_text(item).second, &item);
+    } else if (const auto* labelled = v->as_table()) {
+      for (auto&& [label, item] : *labelled) items.emplace_back(std::string(label.str()), &item);
+      std::stable_sort(items.begin(), items.end(), [](const auto& a, const auto& b) {
+        return a.second->source().begin.line < b.second->source().begin.line;
+      });
+    }
+    if (items.empty())
+      r.fail(*v, where, "expected a non-empty list of values (or a table of labelled values)");
     SweepAxis axis{key, {}, {}, static_cast<int>(v->source().begin.line)};
-    for (const auto& item : *list) {
-      auto [toml_value, label] = value_text(item);
+    for (const auto& [item_label, node] : items) {
+      const toml::node& item = *node;
+      auto toml_value = value_text(item).first;
+      const std::string& label = item_label;
       if (std::find(axis.labels.begin(), axis.labels.end(), label) != axis.labels.end())
         r.fail(item, where, "repeats the value " + label);
       auto overrides = sweep.fixed;
@@ -172,7 +185,7 @@ Sweep read_sweep(const fs::path& file, const std::vector<std::string>& extra_set
         r.fail(item, where, "value " + label + " is refused by the case: " + e.what());
       }
       axis.values.push_back(std::move(toml_value));
-      axis.labels.push_back(std::move(label));
+      axis.labels.push_back(label);
     }
     sweep.axes.push_back(std::move(axis));
   }

@@ -1,0 +1,73 @@
+#!/usr/bin/python3
+"""The paper's Fig. 10: the x-velocities of the two contacts, one lattice
+constant apart (a) and seven apart (b), each contact in its own panel.
+
+Usage: /usr/bin/python3 plots/fig10.py OUT_A OUT_B [PNG]
+       (outputs of cases/fig10a.toml and cases/fig10b.toml, traces on)
+       -> PNG (default OUT_B/../fig10.png) and the same name .pdf
+"""
+import csv
+import json
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def load(out: Path):
+    traces = out / "traces.csv"
+    if not traces.is_file():
+        raise SystemExit(f"error: {traces}: no traces (set [output] traces = \"all\")")
+    with traces.open() as f:
+        reader = csv.reader(f)
+        header = next(reader)
+        columns = list(zip(*[[float(x) for x in row] for row in reader]))
+    ids = [h[3:] for h in header if h.startswith("vx_")]
+    if len(ids) != 2:
+        raise SystemExit(f"error: {traces}: expected two traced contacts, found {len(ids)}")
+    v_star = {}
+    with (out / "contacts.csv").open() as f:
+        for row in csv.DictReader(f):
+            v_star[row["id"]] = (float(row["v_star"]), int(row["ix"]), int(row["iy"]))
+    summary_file = out / "summary.json"
+    summary = json.loads(summary_file.read_text()) if summary_file.is_file() else {}
+    t = [x * 1e3 for x in columns[0]]
+    return summary, t, [(i, columns[header.index(f"vx_{i}")], v_star[i]) for i in ids]
+
+
+def main() -> int:
+    if len(sys.argv) not in (3, 4):
+        print(__doc__.strip(), file=sys.stderr)
+        return 2
+    outs = [Path(sys.argv[1]), Path(sys.argv[2])]
+    png = Path(sys.argv[3]) if len(sys.argv) == 4 else outs[1].parent / "fig10.png"
+    fig, axes = plt.subplots(2, 2, figsize=(10, 5), sharex="col")
+    for col, (out, name) in enumerate(zip(outs, "ab")):
+        summary, t, contacts = load(out)
+        (_, _, (_, x0, y0)), (_, _, (_, x1, y1)) = contacts
+        sync = summary.get("synchronization", {})
+        for row, (cid, vx, (vs, _, _)) in enumerate(contacts):
+            ax = axes[row, col]
+            ax.plot(t, vx, lw=0.7, color=f"C{row}")
+            ax.axhline(vs, color="C3", lw=0.6, ls="--")
+            ax.set_ylabel(f"$v_x$ contact {int(cid) + 1} (m/s)", fontsize=8)
+            ax.set_title(f"({name}) contact {int(cid) + 1}: v* = {vs:.3g} m/s", fontsize=8, loc="left")
+            ax.grid(alpha=0.3)
+        if sync:
+            print(f"({name}) {out}: separation ({x1 - x0}, {y1 - y0}) a, slip-rate ratio "
+                  f"{sync.get('slip_rate_ratio')}, lag mean {sync.get('lag_mean')} s, "
+                  f"coincident {sync.get('coincident_fraction')}")
+        axes[1, col].set_xlabel("time (ms)")
+    fig.suptitle("Fig. 10: two contacts, (a) 1 a apart, (b) 7 a apart; v = 1e-3 m/s", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(png, dpi=130)
+    fig.savefig(png.with_suffix(".pdf"))
+    print(f"wrote {png} and {png.with_suffix('.pdf')}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

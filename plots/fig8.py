@@ -1,0 +1,68 @@
+#!/usr/bin/python3
+"""The paper's Fig. 8: friction force per unit coverage, F_f/θ, against time at
+v = 1e-3 m/s, for a low and a high coverage (small fluctuations against
+block-scale stick-slip).
+
+Usage: /usr/bin/python3 plots/fig8.py OUT_LOW OUT_HIGH [PNG]
+       (outputs of cases/fig8_low.toml and cases/fig8_high.toml)
+       -> PNG (default OUT_HIGH/../fig8.png) and the same name .pdf
+"""
+import csv
+import json
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def load(out: Path):
+    summary_file = out / "summary.json"
+    friction = out / "friction.csv"
+    if not friction.is_file():
+        raise SystemExit(f"error: {friction}: not found")
+    summary = json.loads(summary_file.read_text()) if summary_file.is_file() else {}
+    theta = summary.get("theta")
+    if theta is None:
+        raise SystemExit(f"error: {summary_file}: no theta (the run has not finished)")
+    with friction.open() as f:
+        rows = [(float(r["t"]), float(r["F_f"])) for r in csv.DictReader(f)]
+    return summary, theta, rows
+
+
+def main() -> int:
+    if len(sys.argv) not in (3, 4):
+        print(__doc__.strip(), file=sys.stderr)
+        return 2
+    low, high = Path(sys.argv[1]), Path(sys.argv[2])
+    png = Path(sys.argv[3]) if len(sys.argv) == 4 else high.parent / "fig8.png"
+    fig, axes = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+    for ax, out in zip(axes, (low, high)):
+        summary, theta, rows = load(out)
+        t_avg = summary.get("average_from", 0.0)
+        t = [r[0] * 1e3 for r in rows]
+        f = [r[1] / theta for r in rows]
+        ax.plot(t, f, lw=0.7)
+        window = [v for (tt, v) in zip((r[0] for r in rows), f) if tt >= t_avg]
+        if window:
+            mean = sum(window) / len(window)
+            rel = (max(window) - min(window)) / mean if mean else float("nan")
+            print(f"{out}: theta={theta:.4g} mu={summary['mu']:.6g} F_f/theta mean={mean:.6g} "
+                  f"peak-to-peak/mean={rel:.4g} (t >= {t_avg:g} s)")
+        ax.axvline(t_avg * 1e3, color="0.6", lw=0.6, ls=":")
+        ax.set_ylabel("$F_f/\\theta$ (N)")
+        ax.set_title(f"θ = {theta:.3g}, μ = {summary['mu']:.4g}", fontsize=9, loc="left")
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("time (ms)")
+    fig.suptitle("Fig. 8: friction force per coverage, v = 1e-3 m/s", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(png, dpi=130)
+    fig.savefig(png.with_suffix(".pdf"))
+    print(f"wrote {png} and {png.with_suffix('.pdf')}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,72 @@
+"""μ(θ) with error bars over seeds, one curve per other swept value: shared by
+fig7.py, fig9.py and epsilon.py. Reads a sweep directory's sweep_summary.csv
+(stickslip sweep)."""
+import csv
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+COVERAGE = "interface.coverage"
+
+
+def read_summary(sweep_dir: Path):
+    table = sweep_dir / "sweep_summary.csv"
+    if not table.is_file():
+        raise SystemExit(f"error: {table}: not found (run `stickslip sweep` first)")
+    with table.open() as f:
+        rows = list(csv.DictReader(f))
+    if not rows or COVERAGE not in rows[0]:
+        raise SystemExit(f"error: {table}: the sweep does not vary {COVERAGE}")
+    return rows
+
+
+def curves(rows, label_key):
+    """{label value: [(theta, mean, sd, count)]}, sorted by theta; points without a result skipped."""
+    out = {}
+    for r in rows:
+        if not r["mu_mean"]:
+            continue
+        key = r.get(label_key, "") if label_key else ""
+        sd = float(r["mu_std"]) if r["mu_std"] else 0.0
+        out.setdefault(key, []).append((float(r["theta_mean"]), float(r["mu_mean"]), sd, int(r["count"])))
+    for v in out.values():
+        v.sort()
+    return out
+
+
+def plot(sweep_dir: Path, label_key: str, label_name: str, stem: str, title: str) -> int:
+    rows = read_summary(sweep_dir)
+    if label_key and label_key not in rows[0]:
+        label_key = ""
+    data = curves(rows, label_key)
+    fig, ax = plt.subplots(figsize=(5.5, 4))
+    for i, (value, pts) in enumerate(sorted(data.items(), key=lambda kv: float(kv[0]) if kv[0] else 0)):
+        th = [p[0] for p in pts]
+        mu = [p[1] for p in pts]
+        sd = [p[2] for p in pts]
+        label = f"{label_name} = {value}" if value else None
+        ax.errorbar(th, mu, yerr=sd, marker="o", ms=4, capsize=3, lw=1, color=f"C{i}", label=label)
+        for t, m, s, n in pts:
+            print(f"{label_name}={value or '-'} theta={t:.4g} mu_mean={m:.6g} mu_std={s:.3g} n={n}")
+    ax.set_xlabel("coverage θ")
+    ax.set_ylabel("friction coefficient μ (mean ± sd over seeds)")
+    ax.set_title(title, fontsize=10)
+    if any(data):
+        ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    for ext in ("png", "pdf"):
+        fig.savefig(sweep_dir / f"{stem}.{ext}", dpi=130)
+    print(f"wrote {sweep_dir / (stem + '.png')} and .pdf")
+    return 0
+
+
+def main(stem: str, title: str, label_key: str = "drive.velocity", label_name: str = "v (m/s)") -> int:
+    if len(sys.argv) != 2:
+        print(f"usage: /usr/bin/python3 plots/{stem}.py SWEEP_DIR  -> SWEEP_DIR/{stem}.png, .pdf", file=sys.stderr)
+        return 2
+    return plot(Path(sys.argv[1]), label_key, label_name, stem, title)
