@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """μ(θ) at v = 1e-3 m/s for several force scalings ε (cases/epsilon.toml), error bars over seeds.
 
-Usage: /usr/bin/python3 plots/epsilon.py SWEEP_DIR  -> SWEEP_DIR/epsilon.png and epsilon.pdf
+Usage: /usr/bin/python3 plots/epsilon.py SWEEP_DIR [SWEEP_DIR...]  -> SWEEP_DIR/epsilon.png and epsilon.pdf
 """
 import sys
 

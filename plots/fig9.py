@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """The paper's Fig. 9: μ(θ) on 30×30×10 at v = 4e-4, 7e-4 and 1e-3 m/s, error bars over seeds.
 
-Usage: /usr/bin/python3 plots/fig9.py SWEEP_DIR   (the output of `stickslip sweep cases/fig9.toml`)
+Usage: /usr/bin/python3 plots/fig9.py SWEEP_DIR [SWEEP_DIR...]   (the outputs of `stickslip sweep cases/fig9.toml`)
        -> SWEEP_DIR/fig9.png and fig9.pdf
 """
 import sys

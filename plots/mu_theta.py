@@ -38,13 +38,16 @@ def curves(rows, label_key):
     return out
 
 
-def plot(sweep_dir: Path, label_key: str, label_name: str, stem: str, title: str) -> int:
-    rows = read_summary(sweep_dir)
-    if label_key and label_key not in rows[0]:
-        label_key = ""
-    data = curves(rows, label_key)
+def plot(sweep_dirs, label_key: str, label_name: str, stem: str, title: str) -> int:
+    data = {}
+    for sweep_dir in sweep_dirs:
+        rows = read_summary(sweep_dir)
+        key = label_key if label_key and label_key in rows[0] else ""
+        for value, pts in curves(rows, key).items():
+            data.setdefault(value, []).extend(pts)
     fig, ax = plt.subplots(figsize=(5.5, 4))
     for i, (value, pts) in enumerate(sorted(data.items(), key=lambda kv: float(kv[0]) if kv[0] else 0)):
+        pts.sort()
         th = [p[0] for p in pts]
         mu = [p[1] for p in pts]
         sd = [p[2] for p in pts]
@@ -59,14 +62,16 @@ def plot(sweep_dir: Path, label_key: str, label_name: str, stem: str, title: str
         ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     fig.tight_layout()
+    out = sweep_dirs[0]
     for ext in ("png", "pdf"):
-        fig.savefig(sweep_dir / f"{stem}.{ext}", dpi=130)
-    print(f"wrote {sweep_dir / (stem + '.png')} and .pdf")
+        fig.savefig(out / f"{stem}.{ext}", dpi=130)
+    print(f"wrote {out / (stem + '.png')} and .pdf")
     return 0
 
 
 def main(stem: str, title: str, label_key: str = "drive.velocity", label_name: str = "v (m/s)") -> int:
-    if len(sys.argv) != 2:
-        print(f"usage: /usr/bin/python3 plots/{stem}.py SWEEP_DIR  -> SWEEP_DIR/{stem}.png, .pdf", file=sys.stderr)
+    if len(sys.argv) < 2:
+        print(f"usage: /usr/bin/python3 plots/{stem}.py SWEEP_DIR [SWEEP_DIR...]\n"
+              f"  curves of all the sweeps in one plot -> the first SWEEP_DIR/{stem}.png, .pdf", file=sys.stderr)
         return 2
-    return plot(Path(sys.argv[1]), label_key, label_name, stem, title)
+    return plot([Path(a) for a in sys.argv[1:]], label_key, label_name, stem, title)

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Velocity traces of the traced contacts, one panel per contact (the paper's Fig. 10).
 
-Usage: /usr/bin/python3 plots/traces.py OUTDIR   -> OUTDIR/traces.png
+Usage: /usr/bin/python3 plots/traces.py OUTDIR   -> OUTDIR/traces.png and traces.pdf
 """
 import csv
 import json
@@ -58,6 +58,7 @@ def main() -> int:
         fig.suptitle(f"μ = {summary['mu']:.4f}, θ = {summary['theta']:.4g}", fontsize=10)
     fig.tight_layout()
     fig.savefig(out / "traces.png", dpi=120)
+    fig.savefig(out / "traces.pdf")
     print(f"wrote {out / 'traces.png'}")
     return 0
 

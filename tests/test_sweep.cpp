@@ -7,6 +7,8 @@
 #include <sstream>
 
 #include "sandbox.hpp"
+#include "stickslip/case/reader.hpp"
+#include "stickslip/sweep/sweep.hpp"
 
 using test::Sandbox;
 using test::slurp;
@@ -232,4 +234,22 @@ TEST_CASE("bad sweep files are refused: exit 2, file, line and key, nothing run"
       CHECK(box.snapshot() == before);  // nothing written, nothing run
     }
   }
+}
+
+TEST_CASE("every file in cases/ is a valid case or sweep", "[sweep][cases]") {
+  std::size_t cases = 0, sweeps = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(STICKSLIP_SOURCE_DIR) / "cases")) {
+    if (entry.path().extension() != ".toml") continue;
+    INFO(entry.path());
+    if (slurp(entry.path()).find("[sweep]") != std::string::npos) {
+      const auto sweep = stickslip::read_sweep(entry.path());
+      CHECK(stickslip::sweep_points(sweep).size() >= 2);
+      ++sweeps;
+    } else {
+      CHECK_NOTHROW(stickslip::read_case(entry.path()));
+      ++cases;
+    }
+  }
+  CHECK(cases >= 6);
+  CHECK(sweeps >= 6);
 }

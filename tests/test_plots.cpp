@@ -1,0 +1,172 @@
+// The plot scripts (plots/*.py, run with /usr/bin/python3) on tiny outputs:
+// each writes a PNG and a PDF, and the numbers it says it plotted are the
+// ones in the outputs it read.
+#include <catch2/catch.hpp>
+#include <cstdlib>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <sstream>
+
+#include "sandbox.hpp"
+
+using test::Sandbox;
+using test::slurp;
+namespace fs = std::filesystem;
+
+namespace {
+
+const char* kTinyBase = R"([lattice]
+nx = 6
+ny = 6
+nz = 4
+[run]
+t_end = 3e-4
+average_from = 1e-4
+[output]
+interval = 1e-5
+)";
+
+const char* kTwoContacts = R"([lattice]
+nx = 6
+ny = 6
+nz = 4
+[interface]
+contacts = [ { site = [1, 2], v_star = 4.75e-4 }, { site = [2, 2], v_star = 2.09e-3 } ]
+[run]
+t_end = 3e-4
+average_from = 1e-4
+[output]
+interval = 1e-6
+traces = "all"
+)";
+
+struct Script {
+  int code;
+  std::string out;
+};
+
+Script python(const Sandbox& box, const std::string& script, const std::string& args) {
+  const std::string cmd = "cd " + test::quote(box.work.string()) + " && /usr/bin/python3 " +
+                          test::quote(std::string(STICKSLIP_SOURCE_DIR) + "/plots/" + script) +
+                          " " + args + " >plot.txt 2>&1";
+  const int status = std::system(cmd.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(box.work / "plot.txt")};
+}
+
+// A real PNG with something drawn in it (an empty figure is ~2 kB).
+void check_png(const fs::path& png) {
+  INFO(png);
+  REQUIRE(fs::exists(png));
+  const std::string bytes = slurp(png);
+  CHECK(bytes.substr(0, 8) == std::string("\x89PNG\r\n\x1a\n", 8));
+  CHECK(bytes.size() > 10'000);
+  CHECK(fs::file_size(fs::path(png).replace_extension(".pdf")) > 1'000);
+}
+
+}  // namespace
+
+TEST_CASE("fig7.py, fig9.py and epsilon.py plot the sweep's mean mu per coverage", "[plots]") {
+  Sandbox box("stickslip_plots_");
+  box.write("base.toml", kTinyBase);
+  box.write("s.toml",
+            "[sweep]\ncase = \"base.toml\"\n[vary]\ndrive.velocity = [1e-3, 2e-3]\n"
+            "interface.coverage = [0.2, 0.5]\ninterface.seed = [1, 2]\n");
+  box.write("e.toml",
+            "[sweep]\ncase = \"base.toml\"\n[vary]\ninterface.epsilon = [1e-2, 3e-2]\n"
+            "interface.coverage = [0.2, 0.5]\n");
+  REQUIRE(box.run({"sweep", "s.toml", "--jobs", "2"}).code == 0);
+  REQUIRE(box.run({"sweep", "e.toml", "--jobs", "2"}).code == 0);
+
+  // The means the script prints are sweep_summary.csv's, for all four groups.
+  std::map<std::pair<std::string, std::string>, double> expected;  // (v, coverage) -> μ mean
+  {
+    std::istringstream in(slurp(box.work / "out" / "s" / "sweep_summary.csv"));
+    std::string line;
+    std::getline(in, line);
+    REQUIRE(line == "drive.velocity,interface.coverage,theta_mean,mu_mean,mu_std,mu_sem,count");
+    while (std::getline(in, line)) {
+      std::vector<std::string> f;
+      std::istringstream cells(line);
+      for (std::string c; std::getline(cells, c, ',');) f.push_back(c);
+      expected[{f[0], f[2]}] = std::stod(f[3]);
+    }
+  }
+  REQUIRE(expected.size() == 4);
+  for (const char* script : {"fig7.py", "fig9.py"}) {
+    const auto r = python(box, script, "out/s");
+    INFO(script << ": " << r.out);
+    REQUIRE(r.code == 0);
+    check_png(box.work / "out" / "s" / (std::string(script).substr(0, 4) + ".png"));
+    std::istringstream lines(r.out);
+    int matched = 0;
+    static const std::regex printed(
+        R"(v \(m/s\)=(\S+) theta=(\S+) mu_mean=(\S+) mu_std=(\S+) n=(\d+))");
+    for (std::string line; std::getline(lines, line);) {
+      std::smatch m;
+      if (!std::regex_match(line, m, printed)) continue;
+      const auto it = std::find_if(expected.begin(), expected.end(), [&](const auto& e) {
+        return e.first.first == m[1].str() &&
+               std::abs(std::stod(e.first.second) - std::stod(m[2].str())) < 1e-3;
+      });
+      REQUIRE(it != expected.end());
+      CHECK(std::stod(m[3].str()) == Approx(it->second).epsilon(1e-5));
+      CHECK(m[5].str() == "2");
+      ++matched;
+    }
+    CHECK(matched == 4);
+  }
+  const auto eps = python(box, "epsilon.py", "out/e");
+  INFO(eps.out);
+  REQUIRE(eps.code == 0);
+  check_png(box.work / "out" / "e" / "epsilon.png");
+  CHECK_THAT(eps.out, Catch::Contains("ε=0.01 theta=") && Catch::Contains("ε=0.03 theta="));
+}
+
+TEST_CASE("fig8.py, fig10.py, traces.py and pair_separation.py plot what the runs wrote",
+          "[plots]") {
+  Sandbox box("stickslip_plots_");
+  box.write("base.toml", kTinyBase);
+  box.write("two.toml", kTwoContacts);
+  REQUIRE(box.run({"run", "base.toml", "--out", "low", "--set", "interface.coverage=0.1"}).code ==
+          0);
+  REQUIRE(box.run({"run", "base.toml", "--out", "high", "--set", "interface.coverage=0.5"}).code ==
+          0);
+  const auto f8 = python(box, "fig8.py", "low high fig8.png");
+  INFO(f8.out);
+  REQUIRE(f8.code == 0);
+  check_png(box.work / "fig8.png");
+  for (const char* dir : {"low", "high"}) {
+    const auto s = nlohmann::json::parse(slurp(box.work / dir / "summary.json"));
+    char expect[64];
+    std::snprintf(expect, sizeof expect, "%s: theta=%.4g mu=%.6g", dir, s["theta"].get<double>(),
+                  s["mu"].get<double>());
+    CHECK_THAT(f8.out, Catch::Contains(expect));
+  }
+
+  REQUIRE(box.run({"run", "two.toml", "--out", "a"}).code == 0);
+  REQUIRE(box.run({"run", "two.toml", "--out", "b", "--set",
+                   "interface.contacts=[{site=[1,2],v_star=4.75e-4},{site=[4,2],v_star=2.09e-3}]"})
+              .code == 0);
+  const auto f10 = python(box, "fig10.py", "a b fig10.png");
+  INFO(f10.out);
+  REQUIRE(f10.code == 0);
+  check_png(box.work / "fig10.png");
+  CHECK_THAT(f10.out, Catch::Contains("(a) a: separation (1, 0) a") &&
+                          Catch::Contains("(b) b: separation (3, 0) a"));
+  const auto tr = python(box, "traces.py", "b");
+  INFO(tr.out);
+  REQUIRE(tr.code == 0);
+  check_png(box.work / "b" / "traces.png");
+
+  box.write("pairs.toml",
+            "[sweep]\ncase = \"two.toml\"\n[vary.interface.contacts]\n"
+            "x1 = [{site=[1,2],v_star=4.75e-4},{site=[2,2],v_star=2.09e-3}]\n"
+            "diag2 = [{site=[1,2],v_star=4.75e-4},{site=[3,4],v_star=2.09e-3}]\n");
+  REQUIRE(box.run({"sweep", "pairs.toml", "--jobs", "2"}).code == 0);
+  const auto ps = python(box, "pair_separation.py", "out/pairs");
+  INFO(ps.out);
+  REQUIRE(ps.code == 0);
+  check_png(box.work / "out" / "pairs" / "pair_separation.png");
+  CHECK_THAT(ps.out, Catch::Contains("x        separation 1 a") &&
+                         Catch::Contains("diagonal separation 2.83 a"));
+}
