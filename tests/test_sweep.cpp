@@ -253,3 +253,69 @@ TEST_CASE("every file in cases/ is a valid case or sweep", "[sweep][cases]") {
   CHECK(cases >= 6);
   CHECK(sweeps >= 6);
 }
+
+TEST_CASE("an interrupted sweep continues its stopped points from their checkpoints",
+          "[sweep][restart]") {
+  Sandbox box;
+  // Two contacts through their first slips: ~1 s per point.
+  box.write("two.toml", R"([lattice]
+nx = 6
+ny = 6
+nz = 4
+[interface]
+contacts = [ { site = [1, 2], v_star = 4.75e-4 }, { site = [4, 2], v_star = 2.09e-3 } ]
+[run]
+t_end = 1.5e-3
+average_from = 8e-4
+[output]
+interval = 1e-5
+)");
+  box.write("s.toml", "[sweep]\ncase = \"two.toml\"\n[vary]\ndrive.velocity = [1e-3, 1.2e-3]\n");
+  REQUIRE(box.run({"sweep", "s.toml", "--jobs", "2", "--out", "whole"}).code == 0);
+
+  // SIGTERM to the sweep alone, once both points are under way: it passes the
+  // signal on, each point writes a checkpoint, the sweep exits 143.
+  const std::string cmd = "cd " + test::quote(box.work.string()) + " && (" +
+                          test::quote(STICKSLIP_EXE) +
+                          " sweep s.toml --jobs 2 --out part >part.txt 2>&1 & pid=$!; "
+                          "while [ $(ls part/*/friction.csv 2>/dev/null | wc -l) -lt 2 ]; do "
+                          "sleep 0.05; done; sleep 0.3; kill -TERM $pid; wait $pid)";
+  const int status = std::system(cmd.c_str());
+  INFO(slurp(box.work / "part.txt"));
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 143);
+  int stopped = 0;
+  for (const auto& p : fs::directory_iterator(box.work / "part"))
+    if (fs::exists(p.path() / "checkpoint.bin")) {
+      CHECK_FALSE(fs::exists(p.path() / "summary.json"));
+      ++stopped;
+    }
+  CHECK(stopped >= 1);
+  std::vector<fs::path> stopped_points;
+  for (const auto& p : fs::directory_iterator(box.work / "part"))
+    if (fs::exists(p.path() / "checkpoint.bin")) stopped_points.push_back(p.path());
+
+  const auto resumed = box.run({"sweep", "s.toml", "--jobs", "2", "--out", "part"});
+  INFO(resumed.out << resumed.err);
+  REQUIRE(resumed.code == 0);
+  // Continued, not started afresh: the log of the first attempt is kept.
+  for (const auto& p : stopped_points) {
+    const std::string log = slurp(p / "run.log");
+    CHECK_THAT(log, Catch::Contains("interrupted at t = ") && Catch::Contains("mu = "));
+  }
+  // The continued points agree with the uninterrupted sweep to the tolerance.
+  const auto whole = csv(box.work / "whole" / "sweep.csv"), part = csv(box.work / "part" / "sweep.csv");
+  REQUIRE(whole.size() == 3);
+  REQUIRE(part.size() == 3);
+  const auto mu = column(whole, "mu");
+  for (std::size_t i = 1; i < 3; ++i) {
+    CHECK(part[i][column(part, "status")] == "finished");
+    CHECK(std::stod(part[i][mu]) == Approx(std::stod(whole[i][mu])).epsilon(1e-5));
+    CHECK(part[i][column(part, "slips")] == whole[i][column(whole, "slips")]);
+  }
+  // Rows continue without gaps or duplicates.
+  for (const auto& p : fs::directory_iterator(box.work / "part"))
+    if (p.is_directory())
+      CHECK(test::lines(slurp(p.path() / "friction.csv")) ==
+            test::lines(slurp(box.work / "whole" / p.path().filename() / "friction.csv")));
+}

@@ -1,0 +1,147 @@
+// Micro-benchmarks (Google Benchmark) of the kernels an integration spends its
+// time in, reported as lattice nodes per second ("items_per_second"):
+//   rhs            the full right-hand side (erk, rk4, dirk, bdf)
+//   rhs_explicit   the lattice part of imex (elastic forces, drive, damping)
+//   stage_solve    imex's exact per-contact implicit stage solve
+//   jacobian       refreshing the sparse Jacobian's values (contact blocks only)
+//   klu_setup / klu_solve   factorizing I − γJ with KLU and one solve (dirk, bdf)
+// on 15×15×10, 30×30×10 and 60×60×10 lattices at coverage 0.5, in a state
+// taken from a short integration from rest (contacts stuck and creeping).
+//     build/bench/stickslip_micro [--benchmark_filter=rhs]
+#include <benchmark/benchmark.h>
+#include <sunlinsol/sunlinsol_klu.h>
+#include <sunmatrix/sunmatrix_sparse.h>
+
+#include <map>
+#include <memory>
+
+#include "stickslip/integrate/integrator.hpp"
+#include "stickslip/integrate/sundials.hpp"
+#include "stickslip/model/contacts.hpp"
+#include "stickslip/model/system.hpp"
+
+namespace {
+
+using namespace stickslip;
+
+struct Fixture {
+  Case c;
+  std::unique_ptr<System> system;
+  std::vector<double> y, ydot;
+};
+
+// One system per lattice size, advanced 2 µs from rest so velocities are not zero.
+Fixture& fixture(int n) {
+  static std::map<int, std::unique_ptr<Fixture>> cache;
+  auto& f = cache[n];
+  if (!f) {
+    f = std::make_unique<Fixture>();
+    f->c.lattice = {n, n, 10, 1e-4};
+    f->c.interface.coverage = 0.5;
+    f->system = std::make_unique<System>(f->c, place_contacts(f->c.lattice, f->c.interface));
+    f->y.resize(static_cast<std::size_t>(f->system->size()));
+    f->ydot.resize(f->y.size());
+    f->system->initial_state(InitialState::rest, f->y);
+    const std::vector<double> y0 = f->y;
+    make_integrator(*f->system, f->c.solver, y0, 2e-6, {})->advance(2e-6, f->y);
+  }
+  return *f;
+}
+
+void report_nodes(benchmark::State& state, const System& s) {
+  state.SetItemsProcessed(state.iterations() * s.num_nodes());
+  state.counters["nodes"] = static_cast<double>(s.num_nodes());
+}
+
+void BM_rhs(benchmark::State& state) {
+  auto& f = fixture(static_cast<int>(state.range(0)));
+  for (auto _ : state) {
+    f.system->rhs(0.0, f.y, f.ydot);
+    benchmark::DoNotOptimize(f.ydot.data());
+  }
+  report_nodes(state, *f.system);
+}
+
+void BM_rhs_explicit(benchmark::State& state) {
+  auto& f = fixture(static_cast<int>(state.range(0)));
+  for (auto _ : state) {
+    f.system->rhs_explicit(0.0, f.y, f.ydot);
+    benchmark::DoNotOptimize(f.ydot.data());
+  }
+  report_nodes(state, *f.system);
+}
+
+void BM_stage_solve(benchmark::State& state) {
+  auto& f = fixture(static_cast<int>(state.range(0)));
+  std::vector<double> z = f.y;
+  for (auto _ : state) {
+    std::copy(f.y.begin(), f.y.end(), z.begin());  // the predictor
+    benchmark::DoNotOptimize(f.system->solve_implicit_stage(1e-8, f.y, z));
+  }
+  report_nodes(state, *f.system);
+}
+
+void BM_jacobian(benchmark::State& state) {
+  auto& f = fixture(static_cast<int>(state.range(0)));
+  SparseJacobian jac = f.system->jacobian_pattern(JacobianPart::full);
+  for (auto _ : state) {
+    f.system->jacobian_values(f.y, jac);
+    benchmark::DoNotOptimize(jac.value.data());
+  }
+  report_nodes(state, *f.system);
+}
+
+// KLU on I − γJ, as ARKStep (dirk) and CVODE (bdf) set it up: the numeric
+// factorization (klu_setup) and one solve (klu_solve).
+struct KluProblem {
+  SunContext ctx;
+  SparseJacobian jac;
+  MatrixPtr matrix;
+  NVectorPtr x, b;
+  LinearSolverPtr solver;
+  explicit KluProblem(Fixture& f) {
+    jac = f.system->jacobian_pattern(JacobianPart::full);
+    f.system->jacobian_values(f.y, jac);
+    matrix = make_sparse_matrix(jac, ctx);
+    x = make_serial_vector(f.y, ctx);
+    b = make_serial_vector(f.y, ctx);
+    solver.reset(SUNLinSol_KLU(x.get(), matrix.get(), ctx));
+    SUNLinSolInitialize(solver.get());
+  }
+  void form(double gamma) {
+    copy_into(jac, matrix.get());
+    SUNMatScaleAddI(-gamma, matrix.get());
+  }
+};
+
+void BM_klu_setup(benchmark::State& state) {
+  auto& f = fixture(static_cast<int>(state.range(0)));
+  KluProblem p(f);
+  for (auto _ : state) {
+    p.form(1e-9);
+    benchmark::DoNotOptimize(SUNLinSolSetup(p.solver.get(), p.matrix.get()));
+  }
+  report_nodes(state, *f.system);
+}
+
+void BM_klu_solve(benchmark::State& state) {
+  auto& f = fixture(static_cast<int>(state.range(0)));
+  KluProblem p(f);
+  p.form(1e-9);
+  SUNLinSolSetup(p.solver.get(), p.matrix.get());
+  for (auto _ : state)
+    benchmark::DoNotOptimize(
+        SUNLinSolSolve(p.solver.get(), p.matrix.get(), p.x.get(), p.b.get(), 0.0));
+  report_nodes(state, *f.system);
+}
+
+}  // namespace
+
+BENCHMARK(BM_rhs)->Arg(15)->Arg(30)->Arg(60);
+BENCHMARK(BM_rhs_explicit)->Arg(15)->Arg(30)->Arg(60);
+BENCHMARK(BM_stage_solve)->Arg(15)->Arg(30)->Arg(60);
+BENCHMARK(BM_jacobian)->Arg(15)->Arg(30)->Arg(60);
+BENCHMARK(BM_klu_setup)->Arg(15)->Arg(30)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_klu_solve)->Arg(15)->Arg(30)->Unit(benchmark::kMillisecond);
+
+BENCHMARK_MAIN();
