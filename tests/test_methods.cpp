@@ -289,3 +289,55 @@ TEST_CASE("a run whose energy audit exceeds the bound reports no mu", "[methods]
   CHECK_FALSE(fs::exists(options.out_dir / "summary.json"));
   CHECK(fs::exists(options.out_dir / "friction.csv"));  // the rows computed are kept
 }
+
+TEST_CASE("recording steps.csv does not change a run", "[methods][steps]") {
+  // The same run with and without steps.csv: every output byte for byte. With
+  // ARKStep's post-step hook, case `many` gave ~1160 spurious stick/slip
+  // events in 0.3 ms, where there are none.
+  Case many;
+  many.lattice = {10, 10, 4, 1e-4};
+  many.interface.coverage = 0.5;
+  many.run.t_end = 3e-4;
+  many.run.average_from = 1e-4;
+  Case quiet;  // bdf stalls on `many` (docs/STABILITY.md); this it integrates in ~550 steps
+  quiet.lattice = {6, 6, 4, 1e-4};
+  quiet.interface.coverage = 0.5;
+  quiet.run.t_end = 1e-3;
+  quiet.run.average_from = 2e-4;
+  Case pair = two_contacts();  // through the first slips, with events inside steps
+  pair.run.t_end = 1.2e-3;
+  pair.run.average_from = 5e-4;
+  pair.output.interval = 1e-5;
+  pair.output.traces = ContactSelection::all;
+  TempDir dir("stickslip_test_steps_neutral");
+  struct Run {
+    const char* name;
+    Case c;
+    Method m;
+  };
+  for (const auto& [name, base, m] : {Run{"many", many, Method::imex}, Run{"quiet", quiet, Method::bdf},
+                                      Run{"pair", pair, Method::imex}}) {
+    Case c = base;
+    c.solver.method = m;
+    const std::string tag = std::string(name) + "_" + to_string(m);
+    INFO(tag);
+    RunOptions options{dir.path / (tag + "_off"), false, true};
+    const RunResult off = run_case(c, options);
+    c.output.steps = true;
+    options.out_dir = dir.path / (tag + "_on");
+    const RunResult on = run_case(c, options);
+    CHECK(on.stats.steps == off.stats.steps);
+    CHECK(on.mu == off.mu);
+    auto slurp = [](const fs::path& f) {
+      std::ifstream in(f);
+      return std::string(std::istreambuf_iterator<char>(in), {});
+    };
+    for (const char* file : {"friction.csv", "events.csv", "traces.csv"}) {
+      INFO(file);
+      CHECK(fs::exists(dir.path / (tag + "_off") / file) ==
+            fs::exists(dir.path / (tag + "_on") / file));
+      CHECK(slurp(dir.path / (tag + "_off") / file) == slurp(dir.path / (tag + "_on") / file));
+    }
+    if (std::string(name) == "pair") CHECK(slurp(dir.path / (tag + "_on") / "events.csv").size() > 40);
+  }
+}

@@ -199,11 +199,8 @@ void stress(const Row& row) {
 
   Case c = base_case();
   row.regime(c);
-  // [output] steps stays off (the default): with it on, imex's dense output
-  // and root finding change (on 60×60×10 from rest: thousands of spurious
-  // stick/slip events per µs where there are none without it), and bdf is
-  // driven one step per CVode call, so CVODE's per-call max_steps never fires
-  // (docs/STABILITY.md). The steps of a run that stopped come from its message.
+  // [output] steps stays off (the default): the steps of a run that stopped
+  // come from its message.
   c.solver.method = row.method;
   c.solver.step = row.step;
   c.solver.max_steps = row.max_steps;

@@ -87,7 +87,7 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
   if (options_.on_step) {
     scratch_error_.reset(N_VClone(y_.get()));
     scratch_weights_.reset(N_VClone(y_.get()));
-    check(ARKStepSetPostprocessStepFn(arkode_mem_, after_step), "ARKStepSetPostprocessStepFn");
+    pending_y_.reset(N_VClone(y_.get()));
   }
 }
 
@@ -118,21 +118,97 @@ int ArkStepIntegrator::root_fn(double, N_Vector y, double* g, void* self) {
   });
 }
 
-int ArkStepIntegrator::after_step(double t, N_Vector, void* self) {
-  auto* me = static_cast<ArkStepIntegrator*>(self);
-  return guarded(me->pending_, [&] {
-    // ARKStep has not yet recorded this step's size when it calls us.
-    StepRecord r{t, t - me->t_last_step_, std::numeric_limits<double>::quiet_NaN()};
-    me->t_last_step_ = t;
-    if (me->solver_.method != Method::rk4 &&
-        ARKStepGetEstLocalErrors(me->arkode_mem_, me->scratch_error_.get()) >= 0 &&
-        ARKStepGetErrWeights(me->arkode_mem_, me->scratch_weights_.get()) >= 0)
-      r.error = N_VWrmsNorm(me->scratch_error_.get(), me->scratch_weights_.get());
-    me->options_.on_step(r);
-  });
+void ArkStepIntegrator::record_step() {
+  StepRecord r{0.0, 0.0, std::numeric_limits<double>::quiet_NaN()};
+  ARKStepGetCurrentTime(arkode_mem_, &r.t);
+  // After a root or an output inside a step, ARK_ONE_STEP first hands back
+  // that same step: not a new one.
+  if (r.t <= t_last_step_) return;
+  r.h = r.t - t_last_step_;
+  t_last_step_ = r.t;
+  if (solver_.method != Method::rk4 &&
+      ARKStepGetEstLocalErrors(arkode_mem_, scratch_error_.get()) >= 0 &&
+      ARKStepGetErrWeights(arkode_mem_, scratch_weights_.get()) >= 0)
+    r.error = N_VWrmsNorm(scratch_error_.get(), scratch_weights_.get());
+  options_.on_step(r);
+}
+
+// With steps recorded, ARKStep is driven one step at a time (ARK_ONE_STEP)
+// and outputs are interpolated, exactly as ARK_NORMAL does internally. (A
+// post-step hook, ARKStepSetPostprocessStepFn, would be simpler, but with it
+// ARKStep re-evaluates the right-hand side at every step's end, which changes
+// the dense output: thousands of spurious stick/slip events on a 10×10×4
+// lattice where there are none.) A root that the step crossing t_out finds
+// beyond t_out is kept and reported by the next call.
+double ArkStepIntegrator::advance_stepwise(double t_out, std::span<double> y) {
+  std::fill(roots_.begin(), roots_.end(), 0);
+  auto finish = [&](double t) {
+    const auto values = as_span(y_.get());
+    std::copy(values.begin(), values.end(), y.begin());
+    return t;
+  };
+  if (pending_root_) {
+    if (pending_t_ <= t_out) {
+      pending_root_ = false;
+      roots_ = pending_roots_;
+      N_VScale(1.0, pending_y_.get(), y_.get());
+      return finish(pending_t_);
+    }
+    check(ARKStepGetDky(arkode_mem_, t_out, 0, y_.get()), "ARKStepGetDky");
+    return finish(t_out);
+  }
+  long since_poll = 0;
+  for (;;) {
+    double t_now = 0.0, t = 0.0;
+    ARKStepGetCurrentTime(arkode_mem_, &t_now);
+    if (t_now >= t_out) {
+      // t_out lies in the last step: roots up to it, then its interpolated state.
+      const int flag = ARKStepEvolve(arkode_mem_, t_out, y_.get(), &t, ARK_NORMAL);
+      if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
+      if (flag < 0) throw_failure(flag, t);
+      if (flag == ARK_ROOT_RETURN)
+        check(ARKStepGetRootInfo(arkode_mem_, roots_.data()), "ARKStepGetRootInfo");
+      return finish(flag == ARK_ROOT_RETURN ? t : t_out);
+    }
+    long taken = 0;
+    ARKStepGetNumSteps(arkode_mem_, &taken);
+    if (taken >= solver_.max_steps) {
+      double last = 0.0;
+      ARKStepGetLastStep(arkode_mem_, &last);
+      throw IntegrationError(describe_out_of_steps(t_now, taken, last));
+    }
+    if (++since_poll >= kPollSteps) {
+      since_poll = 0;
+      if (options_.poll && options_.poll()) return finish(t_now);  // y_ holds the state at t_now
+    }
+    const int flag = ARKStepEvolve(arkode_mem_, t_out, y_.get(), &t, ARK_ONE_STEP);
+    if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
+    if (flag < 0) throw_failure(flag, t);
+    record_step();
+    if (flag != ARK_ROOT_RETURN) continue;
+    check(ARKStepGetRootInfo(arkode_mem_, roots_.data()), "ARKStepGetRootInfo");
+    if (t <= t_out) return finish(t);
+    // The root lies beyond t_out: report t_out first (still inside this step).
+    pending_root_ = true;
+    pending_t_ = t;
+    pending_roots_ = roots_;
+    N_VScale(1.0, y_.get(), pending_y_.get());
+    std::fill(roots_.begin(), roots_.end(), 0);
+    check(ARKStepGetDky(arkode_mem_, t_out, 0, y_.get()), "ARKStepGetDky");
+    return finish(t_out);
+  }
+}
+
+void ArkStepIntegrator::throw_failure(int flag, double t) {
+  NVectorPtr err(N_VClone(y_.get())), weights(N_VClone(y_.get()));
+  const bool have = ARKStepGetEstLocalErrors(arkode_mem_, err.get()) >= 0 &&
+                    ARKStepGetErrWeights(arkode_mem_, weights.get()) >= 0;
+  throw IntegrationError(describe_failure(system_, "ARKStepEvolve", ARKStepGetReturnFlagName(flag),
+                                          t, err.get(), weights.get(), have));
 }
 
 double ArkStepIntegrator::advance(double t_out, std::span<double> y) {
+  if (options_.on_step) return advance_stepwise(t_out, y);
   double t = 0.0;
   int flag = ARK_SUCCESS;
   // At most kPollSteps steps per call, so poll() is asked between them and
@@ -153,14 +229,7 @@ double ArkStepIntegrator::advance(double t_out, std::span<double> y) {
     if (flag != ARK_TOO_MUCH_WORK) break;
     if (options_.poll && options_.poll()) break;  // y_ holds the state at t, the last step's end
   }
-  if (flag < 0 && flag != ARK_TOO_MUCH_WORK) {
-    NVectorPtr err(N_VClone(y_.get())), weights(N_VClone(y_.get()));
-    const bool have = ARKStepGetEstLocalErrors(arkode_mem_, err.get()) >= 0 &&
-                      ARKStepGetErrWeights(arkode_mem_, weights.get()) >= 0;
-    throw IntegrationError(describe_failure(system_, "ARKStepEvolve",
-                                            ARKStepGetReturnFlagName(flag), t, err.get(),
-                                            weights.get(), have));
-  }
+  if (flag < 0 && flag != ARK_TOO_MUCH_WORK) throw_failure(flag, t);
   std::fill(roots_.begin(), roots_.end(), 0);
   if (flag == ARK_ROOT_RETURN)
     check(ARKStepGetRootInfo(arkode_mem_, roots_.data()), "ARKStepGetRootInfo");

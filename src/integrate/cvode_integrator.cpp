@@ -47,6 +47,7 @@ CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solve
   if (options_.on_step) {
     scratch_error_.reset(N_VClone(y_.get()));
     scratch_weights_.reset(N_VClone(y_.get()));
+    pending_y_.reset(N_VClone(y_.get()));
   }
 }
 
@@ -90,14 +91,12 @@ void CvodeIntegrator::record_step() {
   options_.on_step(r);
 }
 
-// CVODE has no hook after each step, so when steps are recorded it is driven
-// one step at a time (CV_ONE_STEP) and output times are interpolated. Either
-// way at most kPollSteps steps are taken between calls of poll(), and
-// max_steps holds exactly over the whole run.
+// At most kPollSteps steps between calls of poll(), and max_steps holds
+// exactly over the whole run.
 double CvodeIntegrator::advance(double t_out, std::span<double> y) {
+  if (options_.on_step) return advance_stepwise(t_out, y);
   double t = 0.0;
   int flag = CV_SUCCESS;
-  long since_poll = 0;
   for (;;) {
     long taken = 0;
     CVodeGetNumSteps(cvode_mem_, &taken);
@@ -107,39 +106,91 @@ double CvodeIntegrator::advance(double t_out, std::span<double> y) {
       CVodeGetLastStep(cvode_mem_, &last);
       throw IntegrationError(describe_out_of_steps(now, taken, last));
     }
-    double t_now = 0.0;
-    CVodeGetCurrentTime(cvode_mem_, &t_now);
-    const bool one_step = options_.on_step && t_now < t_out;
-    const long chunk = std::min(kPollSteps - since_poll, solver_.max_steps - taken);
-    check(CVodeSetMaxNumSteps(cvode_mem_, chunk), "CVodeSetMaxNumSteps");
-    flag = CVode(cvode_mem_, t_out, y_.get(), &t, one_step ? CV_ONE_STEP : CV_NORMAL);
+    check(CVodeSetMaxNumSteps(cvode_mem_, std::min(kPollSteps, solver_.max_steps - taken)),
+          "CVodeSetMaxNumSteps");
+    flag = CVode(cvode_mem_, t_out, y_.get(), &t, CV_NORMAL);
     if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
-    if (flag < 0 && flag != CV_TOO_MUCH_WORK) break;
-    if (one_step && flag != CV_TOO_MUCH_WORK) record_step();  // also at t_stop or a root
-    since_poll = flag == CV_TOO_MUCH_WORK ? kPollSteps : since_poll + (one_step ? 1 : 0);
-    if (since_poll >= kPollSteps) {
-      since_poll = 0;
-      if (options_.poll && options_.poll()) {
-        flag = CV_TOO_MUCH_WORK;  // stop here: y_ holds the state at t, the last step's end
-        break;
-      }
-    }
-    if (flag == CV_TOO_MUCH_WORK || (one_step && flag == CV_SUCCESS)) continue;
-    break;
+    if (flag != CV_TOO_MUCH_WORK) break;
+    if (options_.poll && options_.poll()) break;  // y_ holds the state at t, the last step's end
   }
-  if (flag < 0 && flag != CV_TOO_MUCH_WORK) {
-    NVectorPtr err(N_VClone(y_.get())), weights(N_VClone(y_.get()));
-    const bool have = CVodeGetEstLocalErrors(cvode_mem_, err.get()) >= 0 &&
-                      CVodeGetErrWeights(cvode_mem_, weights.get()) >= 0;
-    throw IntegrationError(describe_failure(system_, "CVode", CVodeGetReturnFlagName(flag), t,
-                                            err.get(), weights.get(), have));
-  }
+  if (flag < 0 && flag != CV_TOO_MUCH_WORK) throw_failure(flag, t);
   std::fill(roots_.begin(), roots_.end(), 0);
   if (flag == CV_ROOT_RETURN)
     check(CVodeGetRootInfo(cvode_mem_, roots_.data()), "CVodeGetRootInfo");
   const auto values = as_span(y_.get());
   std::copy(values.begin(), values.end(), y.begin());
   return flag == CV_ROOT_RETURN || flag == CV_TOO_MUCH_WORK ? t : t_out;
+}
+
+// CVODE has no hook after each step, so when steps are recorded it is driven
+// one step at a time (CV_ONE_STEP) and outputs are interpolated, exactly as
+// CV_NORMAL does internally. A root that the step crossing t_out finds beyond
+// t_out is kept and reported by the next call.
+double CvodeIntegrator::advance_stepwise(double t_out, std::span<double> y) {
+  std::fill(roots_.begin(), roots_.end(), 0);
+  auto finish = [&](double t) {
+    const auto values = as_span(y_.get());
+    std::copy(values.begin(), values.end(), y.begin());
+    return t;
+  };
+  if (pending_root_) {
+    if (pending_t_ <= t_out) {
+      pending_root_ = false;
+      roots_ = pending_roots_;
+      N_VScale(1.0, pending_y_.get(), y_.get());
+      return finish(pending_t_);
+    }
+    check(CVodeGetDky(cvode_mem_, t_out, 0, y_.get()), "CVodeGetDky");
+    return finish(t_out);
+  }
+  long since_poll = 0;
+  for (;;) {
+    double t_now = 0.0, t = 0.0;
+    CVodeGetCurrentTime(cvode_mem_, &t_now);
+    if (t_now >= t_out) {
+      // t_out lies in the last step: roots up to it, then its interpolated state.
+      const int flag = CVode(cvode_mem_, t_out, y_.get(), &t, CV_NORMAL);
+      if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
+      if (flag < 0) throw_failure(flag, t);
+      if (flag == CV_ROOT_RETURN)
+        check(CVodeGetRootInfo(cvode_mem_, roots_.data()), "CVodeGetRootInfo");
+      return finish(flag == CV_ROOT_RETURN ? t : t_out);
+    }
+    long taken = 0;
+    CVodeGetNumSteps(cvode_mem_, &taken);
+    if (taken >= solver_.max_steps) {
+      double last = 0.0;
+      CVodeGetLastStep(cvode_mem_, &last);
+      throw IntegrationError(describe_out_of_steps(t_now, taken, last));
+    }
+    if (++since_poll >= kPollSteps) {
+      since_poll = 0;
+      if (options_.poll && options_.poll()) return finish(t_now);  // y_ holds the state at t_now
+    }
+    const int flag = CVode(cvode_mem_, t_out, y_.get(), &t, CV_ONE_STEP);
+    if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
+    if (flag < 0) throw_failure(flag, t);
+    record_step();
+    if (flag != CV_ROOT_RETURN) continue;
+    check(CVodeGetRootInfo(cvode_mem_, roots_.data()), "CVodeGetRootInfo");
+    if (t <= t_out) return finish(t);
+    // The root lies beyond t_out: report t_out first (still inside this step).
+    pending_root_ = true;
+    pending_t_ = t;
+    pending_roots_ = roots_;
+    N_VScale(1.0, y_.get(), pending_y_.get());
+    std::fill(roots_.begin(), roots_.end(), 0);
+    check(CVodeGetDky(cvode_mem_, t_out, 0, y_.get()), "CVodeGetDky");
+    return finish(t_out);
+  }
+}
+
+void CvodeIntegrator::throw_failure(int flag, double t) {
+  NVectorPtr err(N_VClone(y_.get())), weights(N_VClone(y_.get()));
+  const bool have = CVodeGetEstLocalErrors(cvode_mem_, err.get()) >= 0 &&
+                    CVodeGetErrWeights(cvode_mem_, weights.get()) >= 0;
+  throw IntegrationError(describe_failure(system_, "CVode", CVodeGetReturnFlagName(flag), t,
+                                          err.get(), weights.get(), have));
 }
 
 SolverStats CvodeIntegrator::stats() const {

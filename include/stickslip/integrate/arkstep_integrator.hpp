@@ -28,13 +28,15 @@ class ArkStepIntegrator final : public Integrator {
   static int explicit_rhs(double t, N_Vector y, N_Vector ydot, void* self);
   static int implicit_rhs(double t, N_Vector y, N_Vector ydot, void* self);
   static int root_fn(double t, N_Vector y, double* g, void* self);
-  static int after_step(double t, N_Vector y, void* self);
+  double advance_stepwise(double t_out, std::span<double> y);  // when steps are recorded
+  void record_step();
+  [[noreturn]] void throw_failure(int flag, double t);
 
   const System& system_;
   SolverParams solver_;
   IntegratorOptions options_;
   SunContext ctx_;
-  NVectorPtr y_, atol_, scratch_error_, scratch_weights_;
+  NVectorPtr y_, atol_, scratch_error_, scratch_weights_, pending_y_;
   ContactStageStats stage_stats_;
   NonlinearSolverPtr stage_solver_;
   MatrixPtr matrix_;
@@ -44,6 +46,10 @@ class ArkStepIntegrator final : public Integrator {
   std::vector<int> roots_;
   std::exception_ptr pending_;
   double t_last_step_;  // end of the previous accepted step, for steps.csv
+  // A root found beyond the output time by the step that crossed it.
+  bool pending_root_ = false;
+  double pending_t_ = 0.0;
+  std::vector<int> pending_roots_;
 };
 
 }  // namespace stickslip
