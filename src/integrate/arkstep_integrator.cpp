@@ -28,7 +28,7 @@ ARKodeButcherTable classic_rk4() {
 ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& solver,
                                      std::span<const double> y0, double t0, double t_stop,
                                      IntegratorOptions options)
-    : system_(system), solver_(solver), options_(std::move(options)), t_last_step_(t0) {
+    : SteppingIntegrator(solver, std::move(options), t0), system_(system) {
   y_ = make_serial_vector(y0, ctx_);
   const Method m = solver.method;
   // Which parts ARKStep sees: erk and rk4 all explicit, dirk all implicit,
@@ -80,14 +80,13 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
           "ARKStepSetJacFn");
   }
 
-  roots_.assign(options_.watched_contacts.size(), 0);
+  init_stepping(options_.watched_contacts.size());
   if (!roots_.empty())
     check(ARKStepRootInit(arkode_mem_, static_cast<int>(roots_.size()), root_fn),
           "ARKStepRootInit");
   if (options_.on_step) {
     scratch_error_.reset(N_VClone(y_.get()));
     scratch_weights_.reset(N_VClone(y_.get()));
-    pending_y_.reset(N_VClone(y_.get()));
   }
 }
 
@@ -118,85 +117,51 @@ int ArkStepIntegrator::root_fn(double, N_Vector y, double* g, void* self) {
   });
 }
 
-void ArkStepIntegrator::record_step() {
-  StepRecord r{0.0, 0.0, std::numeric_limits<double>::quiet_NaN()};
-  ARKStepGetCurrentTime(arkode_mem_, &r.t);
-  // After a root or an output inside a step, ARK_ONE_STEP first hands back
-  // that same step: not a new one.
-  if (r.t <= t_last_step_) return;
-  r.h = r.t - t_last_step_;
-  t_last_step_ = r.t;
-  if (solver_.method != Method::rk4 &&
-      ARKStepGetEstLocalErrors(arkode_mem_, scratch_error_.get()) >= 0 &&
-      ARKStepGetErrWeights(arkode_mem_, scratch_weights_.get()) >= 0)
-    r.error = N_VWrmsNorm(scratch_error_.get(), scratch_weights_.get());
-  options_.on_step(r);
+double ArkStepIntegrator::current_time() const {
+  double t = 0.0;
+  ARKStepGetCurrentTime(arkode_mem_, &t);
+  return t;
 }
 
-// With steps recorded, ARKStep is driven one step at a time (ARK_ONE_STEP)
-// and outputs are interpolated, exactly as ARK_NORMAL does internally. (A
-// post-step hook, ARKStepSetPostprocessStepFn, would be simpler, but with it
-// ARKStep re-evaluates the right-hand side at every step's end, which changes
-// the dense output: thousands of spurious stick/slip events on a 10×10×4
-// lattice where there are none.) A root that the step crossing t_out finds
-// beyond t_out is kept and reported by the next call.
-double ArkStepIntegrator::advance_stepwise(double t_out, std::span<double> y) {
-  std::fill(roots_.begin(), roots_.end(), 0);
-  auto finish = [&](double t) {
-    const auto values = as_span(y_.get());
-    std::copy(values.begin(), values.end(), y.begin());
-    return t;
-  };
-  if (pending_root_) {
-    if (pending_t_ <= t_out) {
-      pending_root_ = false;
-      roots_ = pending_roots_;
-      N_VScale(1.0, pending_y_.get(), y_.get());
-      return finish(pending_t_);
-    }
-    check(ARKStepGetDky(arkode_mem_, t_out, 0, y_.get()), "ARKStepGetDky");
-    return finish(t_out);
-  }
-  long since_poll = 0;
-  for (;;) {
-    double t_now = 0.0, t = 0.0;
-    ARKStepGetCurrentTime(arkode_mem_, &t_now);
-    if (t_now >= t_out) {
-      // t_out lies in the last step: roots up to it, then its interpolated state.
-      const int flag = ARKStepEvolve(arkode_mem_, t_out, y_.get(), &t, ARK_NORMAL);
-      if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
-      if (flag < 0) throw_failure(flag, t);
-      if (flag == ARK_ROOT_RETURN)
-        check(ARKStepGetRootInfo(arkode_mem_, roots_.data()), "ARKStepGetRootInfo");
-      return finish(flag == ARK_ROOT_RETURN ? t : t_out);
-    }
-    long taken = 0;
-    ARKStepGetNumSteps(arkode_mem_, &taken);
-    if (taken >= solver_.max_steps) {
-      double last = 0.0;
-      ARKStepGetLastStep(arkode_mem_, &last);
-      throw IntegrationError(describe_out_of_steps(t_now, taken, last));
-    }
-    if (++since_poll >= kPollSteps) {
-      since_poll = 0;
-      if (options_.poll && options_.poll()) return finish(t_now);  // y_ holds the state at t_now
-    }
-    const int flag = ARKStepEvolve(arkode_mem_, t_out, y_.get(), &t, ARK_ONE_STEP);
-    if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
-    if (flag < 0) throw_failure(flag, t);
-    record_step();
-    if (flag != ARK_ROOT_RETURN) continue;
-    check(ARKStepGetRootInfo(arkode_mem_, roots_.data()), "ARKStepGetRootInfo");
-    if (t <= t_out) return finish(t);
-    // The root lies beyond t_out: report t_out first (still inside this step).
-    pending_root_ = true;
-    pending_t_ = t;
-    pending_roots_ = roots_;
-    N_VScale(1.0, y_.get(), pending_y_.get());
-    std::fill(roots_.begin(), roots_.end(), 0);
-    check(ARKStepGetDky(arkode_mem_, t_out, 0, y_.get()), "ARKStepGetDky");
-    return finish(t_out);
-  }
+long ArkStepIntegrator::steps_taken() const {
+  long n = 0;
+  ARKStepGetNumSteps(arkode_mem_, &n);
+  return n;
+}
+
+double ArkStepIntegrator::last_step_size() const {
+  double h = 0.0;
+  ARKStepGetLastStep(arkode_mem_, &h);
+  return h;
+}
+
+void ArkStepIntegrator::set_max_steps(long steps) {
+  check(ARKStepSetMaxNumSteps(arkode_mem_, steps), "ARKStepSetMaxNumSteps");
+}
+
+int ArkStepIntegrator::evolve(double t_out, double* t, bool one_step) {
+  static_assert(ARK_SUCCESS == kSuccess && ARK_TSTOP_RETURN == kStopTime &&
+                ARK_ROOT_RETURN == kRoot && ARK_TOO_MUCH_WORK == kTooMuchWork);
+  const int flag =
+      ARKStepEvolve(arkode_mem_, t_out, y_.get(), t, one_step ? ARK_ONE_STEP : ARK_NORMAL);
+  if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
+  return flag;
+}
+
+void ArkStepIntegrator::root_info(int* roots) {
+  check(ARKStepGetRootInfo(arkode_mem_, roots), "ARKStepGetRootInfo");
+}
+
+void ArkStepIntegrator::interpolate(double t, N_Vector y) {
+  check(ARKStepGetDky(arkode_mem_, t, 0, y), "ARKStepGetDky");
+}
+
+double ArkStepIntegrator::local_error_norm() {
+  if (solver_.method == Method::rk4 ||
+      ARKStepGetEstLocalErrors(arkode_mem_, scratch_error_.get()) < 0 ||
+      ARKStepGetErrWeights(arkode_mem_, scratch_weights_.get()) < 0)
+    return std::numeric_limits<double>::quiet_NaN();  // rk4 has no error estimate
+  return N_VWrmsNorm(scratch_error_.get(), scratch_weights_.get());
 }
 
 void ArkStepIntegrator::throw_failure(int flag, double t) {
@@ -205,37 +170,6 @@ void ArkStepIntegrator::throw_failure(int flag, double t) {
                     ARKStepGetErrWeights(arkode_mem_, weights.get()) >= 0;
   throw IntegrationError(describe_failure(system_, "ARKStepEvolve", ARKStepGetReturnFlagName(flag),
                                           t, err.get(), weights.get(), have));
-}
-
-double ArkStepIntegrator::advance(double t_out, std::span<double> y) {
-  if (options_.on_step) return advance_stepwise(t_out, y);
-  double t = 0.0;
-  int flag = ARK_SUCCESS;
-  // At most kPollSteps steps per call, so poll() is asked between them and
-  // max_steps holds exactly over the whole run.
-  for (;;) {
-    long taken = 0;
-    ARKStepGetNumSteps(arkode_mem_, &taken);
-    if (taken >= solver_.max_steps) {
-      double now = 0.0, last = 0.0;
-      ARKStepGetCurrentTime(arkode_mem_, &now);
-      ARKStepGetLastStep(arkode_mem_, &last);
-      throw IntegrationError(describe_out_of_steps(now, taken, last));
-    }
-    check(ARKStepSetMaxNumSteps(arkode_mem_, std::min(kPollSteps, solver_.max_steps - taken)),
-          "ARKStepSetMaxNumSteps");
-    flag = ARKStepEvolve(arkode_mem_, t_out, y_.get(), &t, ARK_NORMAL);
-    if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
-    if (flag != ARK_TOO_MUCH_WORK) break;
-    if (options_.poll && options_.poll()) break;  // y_ holds the state at t, the last step's end
-  }
-  if (flag < 0 && flag != ARK_TOO_MUCH_WORK) throw_failure(flag, t);
-  std::fill(roots_.begin(), roots_.end(), 0);
-  if (flag == ARK_ROOT_RETURN)
-    check(ARKStepGetRootInfo(arkode_mem_, roots_.data()), "ARKStepGetRootInfo");
-  const auto values = as_span(y_.get());
-  std::copy(values.begin(), values.end(), y.begin());
-  return flag == ARK_ROOT_RETURN || flag == ARK_TOO_MUCH_WORK ? t : t_out;
 }
 
 SolverStats ArkStepIntegrator::stats() const {

@@ -14,10 +14,8 @@ namespace stickslip {
 CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solver,
                                  std::span<const double> y0, double t0, double t_stop,
                                  IntegratorOptions options)
-    : system_(system),
-      solver_(solver),
-      options_(std::move(options)),
-      t_last_step_(t0),
+    : SteppingIntegrator(solver, std::move(options), t0),
+      system_(system),
       // BDF of order ≥ 3 is not A-stable and the lattice modes are lightly
       // damped: at loose tolerance it produced spurious slips (MODEL.md §12).
       max_order_(solver.order > 0 ? solver.order : 2) {
@@ -41,13 +39,12 @@ CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solve
         "CVodeSetLinearSolver");
   check(CVodeSetJacFn(cvode_mem_, jacobian), "CVodeSetJacFn");
 
-  roots_.assign(options_.watched_contacts.size(), 0);
+  init_stepping(options_.watched_contacts.size());
   if (!roots_.empty())
     check(CVodeRootInit(cvode_mem_, static_cast<int>(roots_.size()), root_fn), "CVodeRootInit");
   if (options_.on_step) {
     scratch_error_.reset(N_VClone(y_.get()));
     scratch_weights_.reset(N_VClone(y_.get()));
-    pending_y_.reset(N_VClone(y_.get()));
   }
 }
 
@@ -77,112 +74,49 @@ int CvodeIntegrator::jacobian(double, N_Vector y, N_Vector, SUNMatrix J, void* s
   });
 }
 
-void CvodeIntegrator::record_step() {
-  StepRecord r{0.0, 0.0, std::numeric_limits<double>::quiet_NaN()};
-  CVodeGetCurrentTime(cvode_mem_, &r.t);
-  // In CV_ONE_STEP mode CVode first hands back a step it took earlier but
-  // returned only up to an interpolated output time: not a new step.
-  if (r.t <= t_last_step_) return;
-  r.h = r.t - t_last_step_;
-  t_last_step_ = r.t;
-  if (CVodeGetEstLocalErrors(cvode_mem_, scratch_error_.get()) >= 0 &&
-      CVodeGetErrWeights(cvode_mem_, scratch_weights_.get()) >= 0)
-    r.error = N_VWrmsNorm(scratch_error_.get(), scratch_weights_.get());
-  options_.on_step(r);
-}
-
-// At most kPollSteps steps between calls of poll(), and max_steps holds
-// exactly over the whole run.
-double CvodeIntegrator::advance(double t_out, std::span<double> y) {
-  if (options_.on_step) return advance_stepwise(t_out, y);
+double CvodeIntegrator::current_time() const {
   double t = 0.0;
-  int flag = CV_SUCCESS;
-  for (;;) {
-    long taken = 0;
-    CVodeGetNumSteps(cvode_mem_, &taken);
-    if (taken >= solver_.max_steps) {
-      double now = 0.0, last = 0.0;
-      CVodeGetCurrentTime(cvode_mem_, &now);
-      CVodeGetLastStep(cvode_mem_, &last);
-      throw IntegrationError(describe_out_of_steps(now, taken, last));
-    }
-    check(CVodeSetMaxNumSteps(cvode_mem_, std::min(kPollSteps, solver_.max_steps - taken)),
-          "CVodeSetMaxNumSteps");
-    flag = CVode(cvode_mem_, t_out, y_.get(), &t, CV_NORMAL);
-    if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
-    if (flag != CV_TOO_MUCH_WORK) break;
-    if (options_.poll && options_.poll()) break;  // y_ holds the state at t, the last step's end
-  }
-  if (flag < 0 && flag != CV_TOO_MUCH_WORK) throw_failure(flag, t);
-  std::fill(roots_.begin(), roots_.end(), 0);
-  if (flag == CV_ROOT_RETURN)
-    check(CVodeGetRootInfo(cvode_mem_, roots_.data()), "CVodeGetRootInfo");
-  const auto values = as_span(y_.get());
-  std::copy(values.begin(), values.end(), y.begin());
-  return flag == CV_ROOT_RETURN || flag == CV_TOO_MUCH_WORK ? t : t_out;
+  CVodeGetCurrentTime(cvode_mem_, &t);
+  return t;
 }
 
-// CVODE has no hook after each step, so when steps are recorded it is driven
-// one step at a time (CV_ONE_STEP) and outputs are interpolated, exactly as
-// CV_NORMAL does internally. A root that the step crossing t_out finds beyond
-// t_out is kept and reported by the next call.
-double CvodeIntegrator::advance_stepwise(double t_out, std::span<double> y) {
-  std::fill(roots_.begin(), roots_.end(), 0);
-  auto finish = [&](double t) {
-    const auto values = as_span(y_.get());
-    std::copy(values.begin(), values.end(), y.begin());
-    return t;
-  };
-  if (pending_root_) {
-    if (pending_t_ <= t_out) {
-      pending_root_ = false;
-      roots_ = pending_roots_;
-      N_VScale(1.0, pending_y_.get(), y_.get());
-      return finish(pending_t_);
-    }
-    check(CVodeGetDky(cvode_mem_, t_out, 0, y_.get()), "CVodeGetDky");
-    return finish(t_out);
-  }
-  long since_poll = 0;
-  for (;;) {
-    double t_now = 0.0, t = 0.0;
-    CVodeGetCurrentTime(cvode_mem_, &t_now);
-    if (t_now >= t_out) {
-      // t_out lies in the last step: roots up to it, then its interpolated state.
-      const int flag = CVode(cvode_mem_, t_out, y_.get(), &t, CV_NORMAL);
-      if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
-      if (flag < 0) throw_failure(flag, t);
-      if (flag == CV_ROOT_RETURN)
-        check(CVodeGetRootInfo(cvode_mem_, roots_.data()), "CVodeGetRootInfo");
-      return finish(flag == CV_ROOT_RETURN ? t : t_out);
-    }
-    long taken = 0;
-    CVodeGetNumSteps(cvode_mem_, &taken);
-    if (taken >= solver_.max_steps) {
-      double last = 0.0;
-      CVodeGetLastStep(cvode_mem_, &last);
-      throw IntegrationError(describe_out_of_steps(t_now, taken, last));
-    }
-    if (++since_poll >= kPollSteps) {
-      since_poll = 0;
-      if (options_.poll && options_.poll()) return finish(t_now);  // y_ holds the state at t_now
-    }
-    const int flag = CVode(cvode_mem_, t_out, y_.get(), &t, CV_ONE_STEP);
-    if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
-    if (flag < 0) throw_failure(flag, t);
-    record_step();
-    if (flag != CV_ROOT_RETURN) continue;
-    check(CVodeGetRootInfo(cvode_mem_, roots_.data()), "CVodeGetRootInfo");
-    if (t <= t_out) return finish(t);
-    // The root lies beyond t_out: report t_out first (still inside this step).
-    pending_root_ = true;
-    pending_t_ = t;
-    pending_roots_ = roots_;
-    N_VScale(1.0, y_.get(), pending_y_.get());
-    std::fill(roots_.begin(), roots_.end(), 0);
-    check(CVodeGetDky(cvode_mem_, t_out, 0, y_.get()), "CVodeGetDky");
-    return finish(t_out);
-  }
+long CvodeIntegrator::steps_taken() const {
+  long n = 0;
+  CVodeGetNumSteps(cvode_mem_, &n);
+  return n;
+}
+
+double CvodeIntegrator::last_step_size() const {
+  double h = 0.0;
+  CVodeGetLastStep(cvode_mem_, &h);
+  return h;
+}
+
+void CvodeIntegrator::set_max_steps(long steps) {
+  check(CVodeSetMaxNumSteps(cvode_mem_, steps), "CVodeSetMaxNumSteps");
+}
+
+int CvodeIntegrator::evolve(double t_out, double* t, bool one_step) {
+  static_assert(CV_SUCCESS == kSuccess && CV_TSTOP_RETURN == kStopTime && CV_ROOT_RETURN == kRoot &&
+                CV_TOO_MUCH_WORK == kTooMuchWork);
+  const int flag = CVode(cvode_mem_, t_out, y_.get(), t, one_step ? CV_ONE_STEP : CV_NORMAL);
+  if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
+  return flag;
+}
+
+void CvodeIntegrator::root_info(int* roots) {
+  check(CVodeGetRootInfo(cvode_mem_, roots), "CVodeGetRootInfo");
+}
+
+void CvodeIntegrator::interpolate(double t, N_Vector y) {
+  check(CVodeGetDky(cvode_mem_, t, 0, y), "CVodeGetDky");
+}
+
+double CvodeIntegrator::local_error_norm() {
+  if (CVodeGetEstLocalErrors(cvode_mem_, scratch_error_.get()) < 0 ||
+      CVodeGetErrWeights(cvode_mem_, scratch_weights_.get()) < 0)
+    return std::numeric_limits<double>::quiet_NaN();
+  return N_VWrmsNorm(scratch_error_.get(), scratch_weights_.get());
 }
 
 void CvodeIntegrator::throw_failure(int flag, double t) {

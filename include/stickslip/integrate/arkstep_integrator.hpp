@@ -5,12 +5,12 @@
 #include <vector>
 
 #include "stickslip/integrate/contact_stage_solver.hpp"
-#include "stickslip/integrate/integrator.hpp"
+#include "stickslip/integrate/stepping_integrator.hpp"
 #include "stickslip/integrate/sundials.hpp"
 
 namespace stickslip {
 
-class ArkStepIntegrator final : public Integrator {
+class ArkStepIntegrator final : public SteppingIntegrator {
  public:
   ArkStepIntegrator(const System& system, const SolverParams& solver, std::span<const double> y0,
                     double t0, double t_stop, IntegratorOptions options);
@@ -18,8 +18,6 @@ class ArkStepIntegrator final : public Integrator {
   ArkStepIntegrator(const ArkStepIntegrator&) = delete;
   ArkStepIntegrator& operator=(const ArkStepIntegrator&) = delete;
 
-  double advance(double t_out, std::span<double> y) override;
-  std::span<const int> roots() const override { return roots_; }
   SolverStats stats() const override;
   nlohmann::json description() const override;
 
@@ -28,28 +26,25 @@ class ArkStepIntegrator final : public Integrator {
   static int explicit_rhs(double t, N_Vector y, N_Vector ydot, void* self);
   static int implicit_rhs(double t, N_Vector y, N_Vector ydot, void* self);
   static int root_fn(double t, N_Vector y, double* g, void* self);
-  double advance_stepwise(double t_out, std::span<double> y);  // when steps are recorded
-  void record_step();
-  [[noreturn]] void throw_failure(int flag, double t);
+  double current_time() const override;
+  long steps_taken() const override;
+  double last_step_size() const override;
+  void set_max_steps(long steps) override;
+  int evolve(double t_out, double* t, bool one_step) override;
+  void root_info(int* roots) override;
+  void interpolate(double t, N_Vector y) override;
+  double local_error_norm() override;
+  [[noreturn]] void throw_failure(int flag, double t) override;
 
   const System& system_;
-  SolverParams solver_;
-  IntegratorOptions options_;
-  SunContext ctx_;
-  NVectorPtr y_, atol_, scratch_error_, scratch_weights_, pending_y_;
+  NVectorPtr atol_, scratch_error_, scratch_weights_;
   ContactStageStats stage_stats_;
   NonlinearSolverPtr stage_solver_;
   MatrixPtr matrix_;
   LinearSolverPtr linear_solver_;
   SparseJacobian jacobian_;
   void* arkode_mem_ = nullptr;
-  std::vector<int> roots_;
   std::exception_ptr pending_;
-  double t_last_step_;  // end of the previous accepted step, for steps.csv
-  // A root found beyond the output time by the step that crossed it.
-  bool pending_root_ = false;
-  double pending_t_ = 0.0;
-  std::vector<int> pending_roots_;
 };
 
 }  // namespace stickslip

@@ -1,0 +1,117 @@
+#include "stickslip/integrate/stepping_integrator.hpp"
+
+#include <algorithm>
+#include <limits>
+
+#include "failure.hpp"
+
+namespace stickslip {
+
+SteppingIntegrator::SteppingIntegrator(const SolverParams& solver, IntegratorOptions options,
+                                       double t0)
+    : solver_(solver), options_(std::move(options)), t_last_step_(t0) {}
+
+void SteppingIntegrator::init_stepping(std::size_t watched_contacts) {
+  roots_.assign(watched_contacts, 0);
+  if (options_.on_step) pending_y_.reset(N_VClone(y_.get()));
+}
+
+double SteppingIntegrator::advance(double t_out, std::span<double> y) {
+  std::fill(roots_.begin(), roots_.end(), 0);
+  return options_.on_step ? advance_stepwise(t_out, y) : advance_normal(t_out, y);
+}
+
+double SteppingIntegrator::finish(double t, std::span<double> y) {
+  const auto values = as_span(y_.get());
+  std::copy(values.begin(), values.end(), y.begin());
+  return t;
+}
+
+void SteppingIntegrator::throw_if_out_of_steps() {
+  const long taken = steps_taken();
+  if (taken >= solver_.max_steps)
+    throw IntegrationError(describe_out_of_steps(current_time(), taken, last_step_size()));
+}
+
+double SteppingIntegrator::advance_normal(double t_out, std::span<double> y) {
+  double t = 0.0;
+  int flag = kSuccess;
+  for (;;) {
+    throw_if_out_of_steps();
+    set_max_steps(std::min(kPollSteps, solver_.max_steps - steps_taken()));
+    flag = evolve(t_out, &t, false);
+    if (flag != kTooMuchWork) break;
+    if (options_.poll && options_.poll()) return finish(t, y);  // y_: the state at t, a step's end
+  }
+  if (flag < 0) throw_failure(flag, t);
+  if (flag == kRoot) {
+    root_info(roots_.data());
+    return finish(t, y);
+  }
+  return finish(t_out, y);
+}
+
+// A post-step hook (ARKStepSetPostprocessStepFn) would be simpler, but with it
+// ARKStep re-evaluates the right-hand side at every step's end, which changes
+// the dense output: ~1160 spurious stick/slip events in 0.3 ms on a 10×10×4
+// lattice where there are none. CVODE has no such hook at all.
+double SteppingIntegrator::advance_stepwise(double t_out, std::span<double> y) {
+  if (pending_root_) {
+    if (pending_t_ <= t_out) {
+      pending_root_ = false;
+      roots_ = pending_roots_;
+      N_VScale(1.0, pending_y_.get(), y_.get());
+      return finish(pending_t_, y);
+    }
+    interpolate(t_out, y_.get());
+    return finish(t_out, y);
+  }
+  long since_poll = 0;
+  for (;;) {
+    double t = 0.0;
+    const double t_now = current_time();
+    if (t_now >= t_out) {
+      // t_out lies in the last step: its roots up to t_out, then the
+      // interpolated state, as normal mode gives them; no new step.
+      const int flag = evolve(t_out, &t, false);
+      if (flag < 0) throw_failure(flag, t);
+      if (flag != kRoot) return finish(t_out, y);
+      root_info(roots_.data());
+      return finish(t, y);
+    }
+    throw_if_out_of_steps();
+    if (++since_poll >= kPollSteps) {
+      since_poll = 0;
+      if (options_.poll && options_.poll()) {
+        interpolate(t_now, y_.get());  // the last step's end
+        return finish(t_now, y);
+      }
+    }
+    const int flag = evolve(t_out, &t, true);
+    if (flag < 0) throw_failure(flag, t);
+    record_step();
+    if (flag != kRoot) continue;
+    root_info(roots_.data());
+    if (t <= t_out) return finish(t, y);
+    // The root lies beyond t_out: report t_out first (it is inside this step).
+    pending_root_ = true;
+    pending_t_ = t;
+    pending_roots_ = roots_;
+    N_VScale(1.0, y_.get(), pending_y_.get());
+    std::fill(roots_.begin(), roots_.end(), 0);
+    interpolate(t_out, y_.get());
+    return finish(t_out, y);
+  }
+}
+
+void SteppingIntegrator::record_step() {
+  const double t = current_time();
+  // After a root or an output inside a step, ONE_STEP mode first hands back
+  // that same step: not a new one.
+  if (t <= t_last_step_) return;
+  const StepRecord r{t, t - t_last_step_, local_error_norm()};
+  t_last_step_ = t;
+  options_.on_step(r);
+}
+
+}  // namespace stickslip
