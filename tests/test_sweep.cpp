@@ -100,6 +100,19 @@ TEST_CASE("a sweep runs every combination once, and started again only what is u
     CHECK(means[g + 1][column(means, "count")] == "2");
   }
 
+  // --report writes the tables from what is finished and runs nothing.
+  fs::remove_all(out / "coverage=0.5_seed=1");
+  const auto report = box.run({"sweep", "tiny.toml", "--report"});
+  CHECK(report.code == 1);
+  CHECK_THAT(report.out, Catch::Contains("3 of 4 points finished"));
+  CHECK_FALSE(fs::exists(out / "coverage=0.5_seed=1"));
+  const auto partial = csv(out / "sweep.csv");
+  CHECK(partial[3][status] == "not run");
+  CHECK(partial[3][mu].empty());
+  CHECK(partial[4] == rows[4]);
+  REQUIRE(box.run({"sweep", "tiny.toml", "--jobs", "2"}).code == 0);
+  rows = csv(out / "sweep.csv");
+
   // Started again: nothing runs, no result is touched.
   const auto stamp = mtime(out / "coverage=0.5_seed=2" / "summary.json");
   const auto again = box.run({"sweep", "tiny.toml", "--jobs", "2"});

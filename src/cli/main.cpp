@@ -104,7 +104,7 @@ class MpiWorld {
 };
 
 int sweep_command(const std::string& sweep_file, const std::string& out, int jobs,
-                  const std::vector<std::string>& sets, bool overwrite) {
+                  const std::vector<std::string>& sets, bool overwrite, bool report_only) {
   using namespace stickslip;
   try {
     const Sweep sweep = read_sweep(sweep_file, sets);
@@ -122,6 +122,13 @@ int sweep_command(const std::string& sweep_file, const std::string& out, int job
     if (access(options.out_dir.c_str(), W_OK) != 0)
       throw OutputError(options.out_dir.string() + ": output directory is not writable");
 
+    if (report_only) {
+      const std::size_t finished = write_sweep_tables(sweep, points, options.out_dir);
+      std::printf("%zu of %zu points finished; tables: %s, %s\n", finished, points.size(),
+                  (options.out_dir / "sweep.csv").c_str(),
+                  (options.out_dir / "sweep_summary.csv").c_str());
+      return finished == points.size() ? 0 : 1;
+    }
     MpiWorld world;
     options.rank = world.rank();
     options.ranks = world.size();
@@ -194,7 +201,7 @@ int main(int argc, char** argv) {
   std::string sweep_file, sweep_out;
   std::vector<std::string> sweep_sets;
   int jobs = 0;
-  bool sweep_overwrite = false;
+  bool sweep_overwrite = false, sweep_report = false;
   CLI::App* sweep = app.add_subcommand(
       "sweep", "run every combination of a sweep file's values; skips points already finished");
   sweep->add_option("sweep_file", sweep_file, "the sweep file (TOML)")->required();
@@ -204,6 +211,8 @@ int main(int argc, char** argv) {
   sweep->add_option("--set", sweep_sets, "override a case value for every point (repeatable)");
   sweep->add_flag("--overwrite", sweep_overwrite,
                   "recompute points computed by another code version or for another case");
+  sweep->add_flag("--report", sweep_report,
+                  "only write sweep.csv and sweep_summary.csv from the points finished so far");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -213,7 +222,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (*run) return run_command(case_file, out, restart, sets, overwrite, quiet);
-  if (*sweep) return sweep_command(sweep_file, sweep_out, jobs, sweep_sets, sweep_overwrite);
+  if (*sweep)
+    return sweep_command(sweep_file, sweep_out, jobs, sweep_sets, sweep_overwrite, sweep_report);
   if (*compare)
     return stickslip::compare_command(dir_a, dir_b, rtol, compare_out, std::cout, std::cerr);
   return 2;
