@@ -48,8 +48,10 @@ def main() -> int:
         window = [v for (tt, v) in zip((r[0] for r in rows), f) if tt >= t_avg]
         if window:
             mean = sum(window) / len(window)
+            sd = (sum((v - mean) ** 2 for v in window) / len(window)) ** 0.5
             rel = (max(window) - min(window)) / mean if mean else float("nan")
             print(f"{out}: theta={theta:.4g} mu={summary['mu']:.6g} F_f/theta mean={mean:.6g} "
+                  f"max={max(window):.6g} min={min(window):.6g} std/mean={sd / mean:.4g} "
                   f"peak-to-peak/mean={rel:.4g} (t >= {t_avg:g} s)")
         ax.axvline(t_avg * 1e3, color="0.6", lw=0.6, ls=":")
         ax.set_ylabel("$F_f/\\theta$ (N)")
