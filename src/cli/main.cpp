@@ -3,14 +3,15 @@
 // `stickslip compare`: 0 within tolerance, 1 beyond it, 2 bad input
 // (stickslip/analysis/compare.hpp). `stickslip sweep`: 0 every point
 // finished, 1 some failed, 2 bad input, 130/143 interrupted.
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <cstdlib>
-#include <thread>
-#include <unistd.h>
 #include <filesystem>
 #include <iostream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "stickslip/analysis/compare.hpp"
@@ -27,33 +28,13 @@
 
 namespace {
 
-int run_command(const std::string& case_file, const std::string& out, const std::string& restart,
-                const std::vector<std::string>& sets, bool overwrite, bool quiet) {
+// The exit codes every command shares: 2 for bad input (case or sweep file,
+// options, output directory), 1 for anything that went wrong after.
+template <class Body>
+int with_exit_codes(Body&& body) {
   using namespace stickslip;
-  std::filesystem::path dir;  // known once the case is read
   try {
-    const Case c = read_case(case_file, sets);
-    RunOptions options;
-    options.out_dir = restart.empty() ? output_dir_for(c, out) : std::filesystem::path(restart);
-    options.overwrite = overwrite;
-    options.quiet = quiet;
-    options.restart = !restart.empty();
-    dir = options.out_dir;
-    install_stop_handlers();
-    const RunResult r = run_case(c, options);
-    std::printf(
-        "mu = %.6f  (theta = %.4f, %zu contacts, energy residual %.2e, %ld steps, %.1f s)\n", r.mu,
-        r.theta, r.contacts, r.energy_residual, r.stats.steps, r.wall_seconds);
-    std::printf("outputs in %s\n", options.out_dir.string().c_str());
-    return 0;
-  } catch (const Interrupted& stop) {
-    std::string sets_text;
-    for (const auto& set : sets) sets_text += " --set '" + set + "'";
-    std::fprintf(stderr,
-                 "interrupted at t = %.9g s; outputs flushed and a checkpoint written in %s\n"
-                 "continue with: stickslip run %s%s --restart %s\n",
-                 stop.t, dir.c_str(), case_file.c_str(), sets_text.c_str(), dir.c_str());
-    return 128 + stop.signal;
+    return body();
   } catch (const CaseError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
@@ -69,13 +50,46 @@ int run_command(const std::string& case_file, const std::string& out, const std:
   }
 }
 
+int run_command(const std::string& case_file, const std::string& out, const std::string& restart,
+                const std::vector<std::string>& sets, bool overwrite, bool quiet) {
+  using namespace stickslip;
+  std::filesystem::path dir;  // known once the case is read
+  try {
+    return with_exit_codes([&] {
+      const Case c = read_case(case_file, sets);
+      RunOptions options;
+      options.out_dir = restart.empty() ? output_dir_for(c, out) : std::filesystem::path(restart);
+      options.overwrite = overwrite;
+      options.quiet = quiet;
+      options.restart = !restart.empty();
+      dir = options.out_dir;
+      install_stop_handlers();
+      const RunResult r = run_case(c, options);
+      std::printf(
+          "mu = %.6f  (theta = %.4f, %zu contacts, energy residual %.2e, %ld steps, %.1f s)\n",
+          r.mu, r.theta, r.contacts, r.energy_residual, r.stats.steps, r.wall_seconds);
+      std::printf("outputs in %s\n", options.out_dir.string().c_str());
+      return 0;
+    });
+  } catch (const Interrupted& stop) {
+    std::string sets_text;
+    for (const auto& set : sets) sets_text += " --set '" + set + "'";
+    std::fprintf(stderr,
+                 "interrupted at t = %.9g s; outputs flushed and a checkpoint written in %s\n"
+                 "continue with: stickslip run %s%s --restart %s\n",
+                 stop.t, dir.c_str(), case_file.c_str(), sets_text.c_str(), dir.c_str());
+    return 128 + stop.signal;
+  }
+}
+
 // Under mpirun (built with MPI), the ranks share a sweep's points; started
 // any other way the sweep is one process and MPI is never initialized.
 class MpiWorld {
  public:
   MpiWorld() {
 #ifdef STICKSLIP_WITH_MPI
-    if (std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE") || std::getenv("PMIX_RANK")) {
+    if (std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE") ||
+        std::getenv("PMIX_RANK")) {
       MPI_Init(nullptr, nullptr);
       active_ = true;
       MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
@@ -95,8 +109,12 @@ class MpiWorld {
     if (active_) MPI_Barrier(MPI_COMM_WORLD);
 #endif
   }
-  int rank() const { return rank_; }
-  int size() const { return size_; }
+  int rank() const {
+    return rank_;
+  }
+  int size() const {
+    return size_;
+  }
 
  private:
   bool active_ = false;
@@ -106,7 +124,7 @@ class MpiWorld {
 int sweep_command(const std::string& sweep_file, const std::string& out, int jobs,
                   const std::vector<std::string>& sets, bool overwrite, bool report_only) {
   using namespace stickslip;
-  try {
+  return with_exit_codes([&] {
     const Sweep sweep = read_sweep(sweep_file, sets);
     const auto points = sweep_points(sweep);
     SweepOptions options;
@@ -117,8 +135,8 @@ int sweep_command(const std::string& sweep_file, const std::string& out, int job
     std::error_code ec;
     std::filesystem::create_directories(options.out_dir, ec);
     if (ec)
-      throw OutputError(options.out_dir.string() + ": cannot create output directory: " +
-                        ec.message());
+      throw OutputError(options.out_dir.string() +
+                        ": cannot create output directory: " + ec.message());
     if (access(options.out_dir.c_str(), W_OK) != 0)
       throw OutputError(options.out_dir.string() + ": output directory is not writable");
 
@@ -137,12 +155,12 @@ int sweep_command(const std::string& sweep_file, const std::string& out, int job
                        ? 1
                        : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     if (world.rank() == 0)
-      std::printf("sweep %s: %zu points (%zu axes), %d job%s%s, outputs in %s\n",
-                  sweep_file.c_str(), points.size(), sweep.axes.size(), options.jobs,
-                  options.jobs == 1 ? "" : "s",
-                  world.size() > 1 ? (" on each of " + std::to_string(world.size()) + " MPI ranks").c_str()
-                                   : "",
-                  options.out_dir.c_str());
+      std::printf(
+          "sweep %s: %zu points (%zu axes), %d job%s%s, outputs in %s\n", sweep_file.c_str(),
+          points.size(), sweep.axes.size(), options.jobs, options.jobs == 1 ? "" : "s",
+          world.size() > 1 ? (" on each of " + std::to_string(world.size()) + " MPI ranks").c_str()
+                           : "",
+          options.out_dir.c_str());
     std::fflush(stdout);
     const SweepOutcome outcome = run_sweep(sweep, points, options, std::cout);
     world.barrier();
@@ -157,16 +175,7 @@ int sweep_command(const std::string& sweep_file, const std::string& out, int job
                 points.size(), outcome.skipped, (options.out_dir / "sweep.csv").c_str(),
                 (options.out_dir / "sweep_summary.csv").c_str());
     return finished == points.size() ? 0 : 1;
-  } catch (const CaseError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  } catch (const OutputError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 1;
-  }
+  });
 }
 
 }  // namespace
@@ -206,7 +215,9 @@ int main(int argc, char** argv) {
       "sweep", "run every combination of a sweep file's values; skips points already finished");
   sweep->add_option("sweep_file", sweep_file, "the sweep file (TOML)")->required();
   sweep->add_option("--out", sweep_out, "output directory (default out/<sweep name>)");
-  sweep->add_option("--jobs", jobs, "points run at once (default: the number of cores; 1 per MPI rank)")
+  sweep
+      ->add_option("--jobs", jobs,
+                   "points run at once (default: the number of cores; 1 per MPI rank)")
       ->check(CLI::PositiveNumber);
   sweep->add_option("--set", sweep_sets, "override a case value for every point (repeatable)");
   sweep->add_flag("--overwrite", sweep_overwrite,
