@@ -140,11 +140,12 @@ PointState point_state(const SweepPoint& point, const fs::path& dir, std::string
 std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>& points,
                                const fs::path& out_dir) {
   std::vector<std::optional<nlohmann::json>> summaries;
+  std::vector<PointState> states;
   bool any_sync = false;
   for (const auto& p : points) {
     const fs::path dir = out_dir / p.name;
-    summaries.push_back(point_state(p, dir) == PointState::finished ? read_summary(dir)
-                                                                    : std::nullopt);
+    states.push_back(point_state(p, dir));
+    summaries.push_back(states.back() == PointState::finished ? read_summary(dir) : std::nullopt);
     any_sync = any_sync || (summaries.back() && summaries.back()->contains("synchronization"));
   }
 
@@ -166,7 +167,7 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
     for (const auto& label : p.labels) table << ',' << csv_field(label);
     const fs::path dir = out_dir / p.name;
     if (!summaries[i]) {
-      const PointState state = point_state(p, dir);
+      const PointState state = states[i];
       table << ',' << to_string(state) << std::string(any_sync ? 21 : 14, ',')
             << csv_field(state == PointState::failed ? last_line(dir / "run.log") : "") << '\n';
       continue;
