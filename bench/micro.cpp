@@ -75,7 +75,7 @@ void BM_stage_solve(benchmark::State& state) {
   auto& f = fixture(static_cast<int>(state.range(0)));
   std::vector<double> z = f.y;
   for (auto _ : state) {
-    std::copy(f.y.begin(), f.y.end(), z.begin());  // the predictor
+    std::copy(f.y.begin(), f.y.end(), z.begin());  // b, the state itself as a stand-in
     benchmark::DoNotOptimize(f.system->solve_implicit_stage(1e-8, f.y, z));
   }
   report_nodes(state, *f.system);

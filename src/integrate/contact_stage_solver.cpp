@@ -35,11 +35,12 @@ int solve(SUNNonlinearSolver nls, N_Vector, N_Vector zcor, N_Vector, double, sun
   if (ARKStepGetNonlinearSystemData(arkode_mem, &t, &zpred, &z, &fi, &gamma, &sdata, &user_data) <
       0)
     return SUN_NLS_MEM_NULL;
-  N_VScale(1.0, zpred, z);                     // predictor, the initial guess
-  N_VLinearSum(1.0, zpred, 1.0, sdata, zcor);  // b, held in zcor for a moment
+  // Two passes over the state: b into z (every entry but the contacts' is
+  // then final), and the correction out of it.
+  N_VLinearSum(1.0, zpred, 1.0, sdata, z);
   ++c.stats->solves;
   try {
-    c.stats->last_iterations = c.system->solve_implicit_stage(gamma, as_span(zcor), as_span(z));
+    c.stats->last_iterations = c.system->solve_implicit_stage(gamma, as_span(zpred), as_span(z));
   } catch (const std::exception&) {
     ++c.stats->failures;
     return SUN_NLS_CONV_RECVR;  // ARKStep retries with a smaller step

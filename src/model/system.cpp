@@ -67,7 +67,6 @@ System::System(const Case& c, std::vector<Contact> contacts)
       throw std::invalid_argument("contact outside the bottom layer or with v* <= 0");
     contact_node_.push_back(node(ct.ix, ct.iy, 0));
   }
-  predicted_speed_.resize(contacts_.size());
 }
 
 std::string System::describe_component(std::int64_t i) const {
@@ -283,21 +282,14 @@ void System::jacobian_values(std::span<const double> y, SparseJacobian& jac) con
 // Newton runs in x = ln λ, where φ is a Gaussian and well-behaved across the
 // 10¹⁰–10¹⁵ s⁻¹ stiffness near rest that defeats Newton in λ (MODEL.md §12),
 // safeguarded by bisection of the bracket.
-long System::solve_implicit_stage(double gamma, std::span<const double> b,
+long System::solve_implicit_stage(double gamma, std::span<const double> predictor,
                                   std::span<double> z) const {
-  // z holds the predictor on entry; keep the contacts' predicted speeds before
-  // z is overwritten with b.
-  for (std::size_t i = 0; i < contacts_.size(); ++i) {
-    const std::int64_t wx = w_index(contact_node_[i], 0);
-    predicted_speed_[i] = std::hypot(z[wx], z[wx + 1]);
-  }
-  std::copy(b.begin(), b.end(), z.begin());
   long iterations = 0;
   const double damping = 1.0 + gamma * eta_c_;
   const double gs = gamma * contact_force_scale_;
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const std::int64_t wx = w_index(contact_node_[i], 0);
-    const double bx = b[wx], by = b[wx + 1];
+    const double bx = z[wx], by = z[wx + 1];
     const double b_len = std::hypot(bx, by);
     if (b_len == 0.0) continue;
     const double v_star = contacts_[i].v_star;
@@ -315,7 +307,7 @@ long System::solve_implicit_stage(double gamma, std::span<const double> b,
       continue;
     }
     // The predictor's speed (b itself when gamma is small) picks the bracket.
-    double lambda = std::clamp(predicted_speed_[i], lo, hi);
+    double lambda = std::clamp(std::hypot(predictor[wx], predictor[wx + 1]), lo, hi);
     if (lambda > lo && lambda < hi) (g(lambda) < 0.0 ? lo : hi) = lambda;
     lambda = std::sqrt(lo * hi);
     bool converged = false;

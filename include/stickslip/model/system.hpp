@@ -86,10 +86,13 @@ class System {
   // Solves the implicit stage equation of IMEX methods, z − γ f_implicit(z) = b,
   // exactly. f_implicit touches only the contacts' in-plane velocities, each
   // depending on its own, so every other component is z = b and each contact
-  // is a scalar equation for its speed (see the .cpp). z holds the predictor on
-  // entry (it picks among several roots) and the solution on return. Returns the number of
-  // scalar Newton iterations; throws std::runtime_error if one fails.
-  long solve_implicit_stage(double gamma, std::span<const double> b, std::span<double> z) const;
+  // is a scalar equation for its speed (see the .cpp). z holds b on entry and
+  // the solution on return, so only the contacts' entries are touched: the
+  // caller forms b in place, one pass over the state. The predictor picks among
+  // several roots. Returns the number of scalar Newton iterations; throws
+  // std::runtime_error if one fails.
+  long solve_implicit_stage(double gamma, std::span<const double> predictor,
+                            std::span<double> z) const;
 
   // ∂f/∂y of `part`, with every diagonal entry present (integrators form I − γJ
   // in place). Quadrature rows are left zero: nothing depends on them.
@@ -149,9 +152,6 @@ class System {
   std::vector<Contact> contacts_;
   std::vector<std::int64_t> contact_node_;
   std::vector<int> x_next_, y_next_;  // periodic neighbour along +x, +y
-  // Scratch for solve_implicit_stage, so it allocates nothing: a System is
-  // driven by one integrator at a time.
-  mutable std::vector<double> predicted_speed_;
 };
 
 }  // namespace stickslip
