@@ -2,6 +2,7 @@
 // finding against a dense fixed-step solution, adaptive against fixed step,
 // and no root functions when no events are asked for.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -340,4 +341,47 @@ TEST_CASE("recording steps.csv does not change a run", "[methods][steps]") {
     }
     if (std::string(name) == "pair") CHECK(slurp(dir.path / (tag + "_on") / "events.csv").size() > 40);
   }
+}
+
+TEST_CASE("final_state.csv holds every node's state at t_end, only when asked for",
+          "[methods][final_state]") {
+  Case c = smooth_case();
+  c.run.t_end = 2e-6;
+  c.run.average_from = 0.0;
+  c.output.interval = 1e-7;
+  TempDir dir("stickslip_test_final_state");
+  run_case(c, {dir.path / "without", false, true});
+  CHECK_FALSE(fs::exists(dir.path / "without" / "final_state.csv"));
+
+  c.output.final_state = true;
+  run_case(c, {dir.path / "with", false, true});
+  const System s(c, place_contacts(c.lattice, c.interface));
+  std::vector<double> y(static_cast<std::size_t>(s.size()), 0.0);
+  std::vector<int> seen(static_cast<std::size_t>(s.num_nodes()), 0);
+  std::ifstream in(dir.path / "with" / "final_state.csv");
+  std::string line;
+  std::getline(in, line);
+  CHECK(line == "t,ix,iy,iz,u_x,u_y,u_z,w_x,w_y,w_z");
+  double t = 0.0, ix, iy, iz, u[3], w[3];
+  while (std::getline(in, line)) {
+    REQUIRE(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf", &t, &ix, &iy,
+                        &iz, &u[0], &u[1], &u[2], &w[0], &w[1], &w[2]) == 10);
+    const std::int64_t n = s.node(int(ix), int(iy), int(iz));
+    ++seen[static_cast<std::size_t>(n)];
+    for (int k = 0; k < 3; ++k) {
+      y[static_cast<std::size_t>(s.u_index(n, k))] = u[k];
+      y[static_cast<std::size_t>(s.w_index(n, k))] = w[k];
+    }
+  }
+  CHECK(t == c.run.t_end);
+  CHECK(std::all_of(seen.begin(), seen.end(), [](int k) { return k == 1; }));
+  // The friction force of the last friction.csv row is a function of the top
+  // layer's displacements: the state written must reproduce it.
+  std::ifstream friction(dir.path / "with" / "friction.csv");
+  std::string last;
+  while (std::getline(friction, line)) last = line;
+  double t_row, f_row;
+  REQUIRE(std::sscanf(last.c_str(), "%lf,%lf", &t_row, &f_row) == 2);
+  CHECK(t_row == Approx(c.run.t_end).epsilon(1e-12));
+  CHECK(s.friction_force(t, y) == Approx(f_row).epsilon(1e-8));
 }

@@ -566,6 +566,8 @@ const std::vector<Entry>& schema() {
       {"output", "events", "\"all\", \"none\" or [contact ids] whose stick/slip is located",
        contact_selection(&OutputParams::events, &OutputParams::event_ids, &Reader::event_ids)},
       {"output", "steps", "write steps.csv (every accepted step)", boolean(&OutputParams::steps)},
+      {"output", "final_state", "write final_state.csv (every node's u and w at t_end)",
+       boolean(&OutputParams::final_state)},
   };
   return entries;
 }

@@ -72,7 +72,7 @@ void CsvWriter::row(double t, std::span<const double> values) {
   std::snprintf(buffer_, sizeof buffer_, "%.12g", t);
   out_ << buffer_;
   for (double v : values) {
-    std::snprintf(buffer_, sizeof buffer_, ",%.10g", v);
+    std::snprintf(buffer_, sizeof buffer_, value_format_, v);
     out_ << buffer_;
   }
   out_ << '\n';

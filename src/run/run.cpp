@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -411,6 +412,24 @@ RunResult run_case(const Case& c, const RunOptions& options) {
     // Only the averaging window is correlated: the start from rest is a transient.
     summary["synchronization"] = to_json(synchronization(events, pair->first, pair->second, window,
                                                          t_avg, t_end, pair_t, pair_va, pair_vb));
+  }
+  if (c.output.final_state) {
+    // For comparing runs state by state (bench/work_precision.py).
+    CsvWriter state(dir / "final_state.csv",
+                    {"t", "ix", "iy", "iz", "u_x", "u_y", "u_z", "w_x", "w_y", "w_z"});
+    state.full_precision();
+    std::array<double, 9> row{};
+    for (int iz = 0; iz < system.nz(); ++iz)
+      for (int iy = 0; iy < system.ny(); ++iy)
+        for (int ix = 0; ix < system.nx(); ++ix) {
+          const std::int64_t n = system.node(ix, iy, iz);
+          row = {double(ix), double(iy), double(iz)};
+          for (int k = 0; k < 3; ++k) {
+            row[3 + k] = y[static_cast<std::size_t>(system.u_index(n, k))];
+            row[6 + k] = y[static_cast<std::size_t>(system.w_index(n, k))];
+          }
+          state.row(t_end, row);
+        }
   }
   write_json_atomically(dir / "summary.json", summary);
   // The run is complete: its checkpoint has nothing left to resume.

@@ -91,6 +91,7 @@ struct OutputParams {
   ContactSelection events = ContactSelection::all;  // whose stick/slip transitions are located
   std::vector<int> event_ids;                       // when events == list
   bool steps = false;                               // write steps.csv
+  bool final_state = false;                         // write final_state.csv
 };
 
 struct Case {

@@ -26,7 +26,7 @@ class OutputError : public std::runtime_error {
 // The files a run writes; a directory holding any of them holds results.
 inline constexpr const char* kOutputFiles[] = {"summary.json", "friction.csv",  "contacts.csv",
                                                "traces.csv",   "events.csv",    "steps.csv",
-                                               "compare.json", "checkpoint.bin"};
+                                               "compare.json", "checkpoint.bin", "final_state.csv"};
 
 // Creates `dir` if needed. Refuses (OutputError) when it already holds results
 // and `overwrite` is false; with `overwrite`, removes only those result files.
@@ -40,12 +40,15 @@ class CsvWriter {
   // One row: values printed with 10 significant digits (times with 12).
   void row(double t, std::span<const double> values);
   void line(std::string_view text) { out_ << text << '\n'; }
+  // Values with 17 digits from here on, enough to read back every double.
+  void full_precision() { value_format_ = ",%.17g"; }
   void flush() { out_.flush(); }
 
  private:
   CsvWriter() = default;
   std::ofstream out_;
   std::filesystem::path file_;
+  const char* value_format_ = ",%.10g";
   char buffer_[32];
 };
 
