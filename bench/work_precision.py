@@ -4,23 +4,37 @@
 
 Usage:
   /usr/bin/python3 bench/work_precision.py CASE.toml [--out DIR] [--exe build/stickslip]
-      [--rtols 1e-4,1e-5,1e-6,1e-7] [--imex-steps 5e-8,2e-8] [--rk4-steps 1e-13]
-      [--methods imex] [--repeats 1] [--ref-rtol 1e-9]
+      [--methods imex,erk,dirk,bdf] [--rtols 1e-3,...,1e-9]
+      [--imex-steps 1e-7,5e-8,2e-8] [--rk4-steps 1e-13] [--repeats 3]
+      [--ref-rtol 1e-10] [--state-horizon T] [--timeout 600]
 
-The reference is imex at --ref-rtol (atol scaled alike), cached in
-DIR/reference and reused only if it was computed by the same code version for
-the same case. Every other run gets [solver] audit_bound = 1e9 so that a
+The reference is imex at --ref-rtol (absolute tolerances scaled alike), cached
+in DIR/reference and reused only if it was computed by the same code version
+for the same case. Every other run gets [solver] audit_bound = 1e9 so that a
 poor run still reports the μ whose error is measured (its energy residual is
-in the table). Writes DIR/work_precision.csv, one row per run: method,
-setting, wall time (median of repeats), peak memory, steps, rhs evaluations,
-energy residual, and the errors against the reference from `stickslip
-compare`: μ relative error, largest relative L2 trace error, largest event
-time error, unmatched events. Plot with plots/work_precision.py DIR.
+in the table). A run still going after --timeout seconds is stopped (SIGTERM:
+it checkpoints and exits); its row records how far it got and the wall time
+that pace extrapolates to the whole horizon, and it is not repeated.
+
+With --state-horizon T every setting is also run to t_end = T with
+[output] final_state, against a reference to T: the final-state error is the
+relative L2 norm of the state difference, displacements weighted by 1/(1 µs)
+so that they count like the velocities (one lattice period is ~1 µs).
+
+Writes DIR/work_precision.csv, one row per run: method, setting, wall time
+(median of repeats), peak memory, steps, rhs evaluations, energy residual, and
+the errors from `stickslip compare`: μ relative error, largest relative L2
+trace error, largest event-time error, unmatched events; and the final-state
+error. Plot with plots/work_precision.py DIR.
 """
 import argparse
 import csv
+import hashlib
 import json
+import math
 import os
+import re
+import signal
 import statistics
 import subprocess
 import sys
@@ -28,23 +42,41 @@ import time
 from pathlib import Path
 
 
-def run(exe, case, out, sets, repeats):
-    """Runs the case `repeats` times into `out`; returns (median wall s, peak RSS kB, ok, message)."""
+def run(exe, case, out, sets, repeats, timeout):
+    """Runs the case up to `repeats` times into `out`.
+
+    Returns a dict: wall (median s), peak_kb, status (finished, failed,
+    timeout), message."""
     walls, peak = [], 0
     for _ in range(repeats):
         cmd = [exe, "run", str(case), "--out", str(out), "--overwrite", "--quiet"]
         for s in sets:
             cmd += ["--set", s]
         start = time.perf_counter()
-        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        _, status, usage = os.wait4(proc.pid, 0)
+        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        deadline = start + timeout
+        timed_out = False
+        while True:
+            pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
+            if pid:
+                break
+            if time.perf_counter() > deadline and not timed_out:
+                proc.send_signal(signal.SIGTERM)
+                timed_out = True
+            time.sleep(0.05)
         walls.append(time.perf_counter() - start)
         peak = max(peak, usage.ru_maxrss)
         err = proc.stderr.read().strip()
-        proc.stdout.read()
+        if timed_out:
+            # "interrupted at t = ... s; ..." says how far it got.
+            m = re.search(r"interrupted at t = ([0-9.eE+-]+) s", err)
+            return {"wall": walls[-1], "peak_kb": peak, "status": "timeout",
+                    "t_reached": float(m.group(1)) if m else 0.0,
+                    "message": f"stopped after {timeout:g} s"}
         if os.waitstatus_to_exitcode(status) != 0:
-            return statistics.median(walls), peak, False, err.splitlines()[-1] if err else "failed"
-    return statistics.median(walls), peak, True, ""
+            return {"wall": statistics.median(walls), "peak_kb": peak, "status": "failed",
+                    "message": err.splitlines()[-1] if err else "failed"}
+    return {"wall": statistics.median(walls), "peak_kb": peak, "status": "finished", "message": ""}
 
 
 def compare(exe, ref, out):
@@ -63,6 +95,24 @@ def compare(exe, ref, out):
     }
 
 
+def read_state(directory):
+    with open(directory / "final_state.csv") as f:
+        rows = list(csv.reader(f))[1:]
+    return [[float(x) for x in r[4:]] for r in rows]
+
+
+def state_error(ref_dir, run_dir):
+    """Relative L2 error of the final state, displacements weighted by 1e6 s⁻¹."""
+    ref, got = read_state(ref_dir), read_state(run_dir)
+    num = den = 0.0
+    for a, b in zip(got, ref):
+        for k in range(6):
+            w = 1e6 if k < 3 else 1.0
+            num += (w * (a[k] - b[k])) ** 2
+            den += (w * b[k]) ** 2
+    return math.sqrt(num / den)
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("case", type=Path)
@@ -74,41 +124,58 @@ def main() -> int:
     p.add_argument("--methods", default="imex", help="adaptive methods, comma-separated")
     p.add_argument("--repeats", type=int, default=1)
     p.add_argument("--ref-rtol", type=float, default=1e-9)
+    p.add_argument("--state-horizon", type=float, default=0.0)
+    p.add_argument("--timeout", type=float, default=600.0, help="seconds per run")
     a = p.parse_args()
     if not a.case.is_file():
         print(f"error: {a.case}: no such case file", file=sys.stderr)
         return 2
     out = a.out or Path("out") / ("wp_" + a.case.stem)
     out.mkdir(parents=True, exist_ok=True)
+    # A one-step probe run tells the code version and that the case runs.
+    probe_dir = out / "probe"
+    pr = subprocess.run([a.exe, "run", str(a.case), "--out", str(probe_dir), "--overwrite", "--quiet",
+                         "--set", "run.t_end=1e-12", "--set", "run.average_from=0"],
+                        capture_output=True, text=True)
+    if pr.returncode != 0:
+        print(f"error: {a.case}: does not run: {pr.stderr.strip()}", file=sys.stderr)
+        return 2
+    probe = json.loads((probe_dir / "summary.json").read_text())
+    case_hash = hashlib.sha256(a.case.read_bytes()).hexdigest()
 
     def scaled(rtol):  # absolute tolerances scaled with rtol from the defaults
         f = rtol / 1e-6
         return [f"solver.rtol={rtol:g}", f"solver.atol_displacement={1e-12 * f:g}",
                 f"solver.atol_velocity={1e-7 * f:g}"]
 
-    ref = out / "reference"
-    ref_sets = scaled(a.ref_rtol) + ["output.traces=\"all\""]
-    cached = False
-    if (ref / "summary.json").is_file():
-        # Reused only for the same case and code: a 1-step probe run tells the current version.
-        probe = out / "probe"
-        subprocess.run([a.exe, "run", str(a.case), "--out", str(probe), "--overwrite", "--quiet",
-                        "--set", "run.t_end=1e-12", "--set", "run.average_from=0"],
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        s_ref = json.loads((ref / "summary.json").read_text())
-        s_probe = json.loads((probe / "summary.json").read_text())
-        same_code = s_ref["provenance"]["git_commit"] == s_probe["provenance"]["git_commit"]
-        c_ref, c_probe = dict(s_ref["case"]), dict(s_probe["case"])
-        for c in (c_ref, c_probe):
-            c.pop("run", None), c.pop("solver", None), c.pop("output", None), c.pop("source", None)
-        cached = same_code and c_ref == c_probe and s_ref["case"]["solver"]["rtol"] == a.ref_rtol
-    if not cached:
-        print(f"reference: imex rtol {a.ref_rtol:g} ...", flush=True)
-        wall, _, ok, msg = run(a.exe, a.case, ref, ref_sets, 1)
-        if not ok:
-            print(f"error: the reference run failed: {msg}", file=sys.stderr)
+    def reference(name, extra):
+        """Runs the reference into out/name, or reuses the one there if it was
+        made by this code version from this case file with the same settings."""
+        ref = out / name
+        sets = scaled(a.ref_rtol) + extra
+        key = {"git_commit": probe["provenance"]["git_commit"], "case_sha256": case_hash, "sets": sets}
+        key_file = out / f"{name}.key.json"
+        if (ref / "summary.json").is_file() and key_file.is_file() and json.loads(key_file.read_text()) == key:
+            return ref
+        print(f"{name}: imex rtol {a.ref_rtol:g} ...", flush=True)
+        r = run(a.exe, a.case, ref, sets, 1, 1e9)
+        if r["status"] != "finished":
+            print(f"error: the reference run failed: {r['message']}", file=sys.stderr)
+            return None
+        key_file.write_text(json.dumps(key))
+        print(f"  {r['wall']:.1f} s", flush=True)
+        return ref
+
+    ref = reference("reference", [])
+    if ref is None:
+        return 1
+    case_t_end = json.loads((ref / "summary.json").read_text())["t_end"]
+    state_ref, horizon = None, a.state_horizon
+    if horizon > 0:
+        state_ref = reference("reference_state", [f"run.t_end={horizon:g}", "run.average_from=0",
+                                                  "output.final_state=true", "output.events=\"none\""])
+        if state_ref is None:
             return 1
-        print(f"  {wall:.1f} s", flush=True)
 
     plan = []
     for m in a.methods.split(","):
@@ -122,29 +189,48 @@ def main() -> int:
     rows = []
     for method, setting, sets in plan:
         d = out / f"{method}_{setting.replace('=', '')}"
-        wall, peak, ok, msg = run(a.exe, a.case, d, sets + ["output.traces=\"all\"", "solver.audit_bound=1e9"],
-                                  a.repeats)
-        row = {"method": method, "setting": setting, "wall_seconds": f"{wall:.3f}", "peak_rss_kb": peak,
-               "status": "finished" if ok else "failed", "message": msg}
-        if ok:
+        r = run(a.exe, a.case, d, sets + ["solver.audit_bound=1e9"], a.repeats, a.timeout)
+        row = {"method": method, "setting": setting, "wall_seconds": f"{r['wall']:.3f}",
+               "peak_rss_kb": r["peak_kb"], "status": r["status"], "message": r["message"]}
+        if r["status"] == "finished":
             s = json.loads((d / "summary.json").read_text())
             st = s["solver_stats"]
             row.update(steps=st["steps"], rhs_explicit=st["rhs_explicit"], rhs_implicit=st["rhs_implicit"],
                        energy_residual=s["energy_residual"], mu=s["mu"], **compare(a.exe, ref, d))
+        elif r["status"] == "timeout":
+            reached = r["t_reached"]
+            row["t_reached"] = reached
+            if reached > 0:
+                row["extrapolated_wall_seconds"] = f"{r['wall'] * case_t_end / reached:.4g}"
+        if state_ref is not None and r["status"] == "finished":
+            ds = out / f"{method}_{setting.replace('=', '')}_state"
+            rs = run(a.exe, a.case, ds, sets + ["solver.audit_bound=1e9", f"run.t_end={horizon:g}",
+                                                "run.average_from=0", "output.final_state=true",
+                                                "output.events=\"none\""], 1, a.timeout)
+            if rs["status"] == "finished":
+                row["state_error"] = state_error(state_ref, ds)
+                row["state_wall_seconds"] = f"{rs['wall']:.3f}"
         rows.append(row)
-        print(f"{method:10s} {setting:14s} {row['status']:8s} {wall:8.2f} s  mu error {row.get('mu_error', '-')}"
-              f"  event error {row.get('event_error', '-')}", flush=True)
-
-    fields = ["method", "setting", "status", "wall_seconds", "peak_rss_kb", "steps", "rhs_explicit",
-              "rhs_implicit", "energy_residual", "mu", "mu_error", "trace_error", "event_error",
-              "unmatched_events", "message"]
-    with (out / "work_precision.csv").open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=fields)
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: r.get(k, "") for k in fields})
+        print(f"{method:10s} {setting:14s} {row['status']:8s} {r['wall']:8.2f} s  mu error {row.get('mu_error', '-')}"
+              f"  event error {row.get('event_error', '-')}  state error {row.get('state_error', '-')}"
+              f"  {row.get('extrapolated_wall_seconds', '')}", flush=True)
+        write_table(out, rows)
     print(f"wrote {out / 'work_precision.csv'}")
     return 0
+
+
+FIELDS = ["method", "setting", "status", "wall_seconds", "peak_rss_kb", "steps", "rhs_explicit",
+          "rhs_implicit", "energy_residual", "mu", "mu_error", "trace_error", "event_error",
+          "unmatched_events", "state_error", "state_wall_seconds", "t_reached",
+          "extrapolated_wall_seconds", "message"]
+
+
+def write_table(out, rows):
+    with (out / "work_precision.csv").open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=FIELDS)
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: r.get(k, "") for k in FIELDS})
 
 
 if __name__ == "__main__":

@@ -267,6 +267,18 @@ TEST_CASE("every file in cases/ is a valid case or sweep", "[sweep][cases]") {
   CHECK(sweeps >= 6);
 }
 
+TEST_CASE("every file in bench/cases/ is a valid case", "[sweep][cases]") {
+  std::size_t cases = 0;
+  for (const auto& entry :
+       fs::directory_iterator(fs::path(STICKSLIP_SOURCE_DIR) / "bench" / "cases")) {
+    INFO(entry.path());
+    CHECK(entry.path().extension() == ".toml");
+    CHECK_NOTHROW(stickslip::read_case(entry.path()));
+    ++cases;
+  }
+  CHECK(cases >= 4);
+}
+
 TEST_CASE("an interrupted sweep continues its stopped points from their checkpoints",
           "[sweep][restart]") {
   Sandbox box;
