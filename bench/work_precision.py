@@ -6,7 +6,7 @@ Usage:
   /usr/bin/python3 bench/work_precision.py CASE.toml [--out DIR] [--exe build/stickslip]
       [--methods imex,erk,dirk,bdf] [--rtols 1e-3,...,1e-9]
       [--imex-steps 1e-7,5e-8,2e-8] [--rk4-steps 1e-13] [--repeats 3]
-      [--ref-rtol 1e-10] [--state-horizon T] [--timeout 600]
+      [--ref-rtol 1e-10] [--state-horizon T] [--timeout 600] [--append]
 
 The reference is imex at --ref-rtol (absolute tolerances scaled alike), cached
 in DIR/reference and reused only if it was computed by the same code version
@@ -126,6 +126,11 @@ def main() -> int:
     p.add_argument("--ref-rtol", type=float, default=1e-9)
     p.add_argument("--state-horizon", type=float, default=0.0)
     p.add_argument("--timeout", type=float, default=600.0, help="seconds per run")
+    p.add_argument("--rk4-timeout", type=float, default=120.0,
+                   help="seconds per rk4 run: enough to measure its pace, which is extrapolated")
+    p.add_argument("--append", action="store_true",
+                   help="keep the rows already in DIR/work_precision.csv (a row of the same method "
+                        "and setting is replaced)")
     a = p.parse_args()
     if not a.case.is_file():
         print(f"error: {a.case}: no such case file", file=sys.stderr)
@@ -187,9 +192,15 @@ def main() -> int:
         plan.append(("rk4", f"step={h:g}", ["solver.method=\"rk4\"", f"solver.step={h:g}"]))
 
     rows = []
+    table = out / "work_precision.csv"
+    if a.append and table.is_file():
+        planned = {(m, st) for m, st, _ in plan}
+        with table.open() as f:
+            rows = [r for r in csv.DictReader(f) if (r["method"], r["setting"]) not in planned]
     for method, setting, sets in plan:
         d = out / f"{method}_{setting.replace('=', '')}"
-        r = run(a.exe, a.case, d, sets + ["solver.audit_bound=1e9"], a.repeats, a.timeout)
+        timeout = a.rk4_timeout if method == "rk4" else a.timeout
+        r = run(a.exe, a.case, d, sets + ["solver.audit_bound=1e9"], a.repeats, timeout)
         row = {"method": method, "setting": setting, "wall_seconds": f"{r['wall']:.3f}",
                "peak_rss_kb": r["peak_kb"], "status": r["status"], "message": r["message"]}
         if r["status"] == "finished":
@@ -206,7 +217,7 @@ def main() -> int:
             ds = out / f"{method}_{setting.replace('=', '')}_state"
             rs = run(a.exe, a.case, ds, sets + ["solver.audit_bound=1e9", f"run.t_end={horizon:g}",
                                                 "run.average_from=0", "output.final_state=true",
-                                                "output.events=\"none\""], 1, a.timeout)
+                                                "output.events=\"none\""], 1, timeout)
             if rs["status"] == "finished":
                 row["state_error"] = state_error(state_ref, ds)
                 row["state_wall_seconds"] = f"{rs['wall']:.3f}"
