@@ -378,7 +378,7 @@ traces = [1]
         nlohmann::json::parse(
             R"([{"site": [4, 2], "v_star": 4.75e-4}, {"site": [1, 5], "v_star": 1e-3}])"));
   CHECK(j.at("run").at("initial") == "rest");
-  CHECK(j.at("solver").at("method") == "imex");
+  CHECK(j.at("solver").at("method") == "auto");
   CHECK(j.at("solver").at("max_steps") == 50'000'000);
   CHECK(j.at("output").at("dir") == "cases/out");
   CHECK(j.at("output").at("traces") == nlohmann::json::array({1}));

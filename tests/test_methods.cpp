@@ -385,3 +385,25 @@ TEST_CASE("final_state.csv holds every node's state at t_end, only when asked fo
   CHECK(t_row == Approx(c.run.t_end).epsilon(1e-12));
   CHECK(s.friction_force(t, y) == Approx(f_row).epsilon(1e-8));
 }
+
+TEST_CASE("method = auto runs imex and says so; an explicit method is used as given",
+          "[methods][auto]") {
+  Case c = smooth_case();
+  c.run.t_end = 1e-6;
+  c.run.average_from = 0.0;
+  c.output.interval = 1e-7;
+  TempDir dir("stickslip_test_auto");
+  REQUIRE(c.solver.method == Method::automatic);  // the default
+  auto summary = [&](const std::string& name) {
+    run_case(c, {dir.path / name, false, true});
+    return nlohmann::json::parse(std::ifstream(dir.path / name / "summary.json"));
+  };
+  const auto automatic = summary("auto");
+  CHECK(automatic.at("case").at("solver").at("method") == "auto");
+  CHECK(automatic.at("solver").at("method") == "imex");
+  CHECK(automatic.at("solver").contains("chosen_by"));
+  c.solver.method = Method::erk;
+  const auto erk = summary("erk");
+  CHECK(erk.at("solver").at("method") == "erk");
+  CHECK_FALSE(erk.at("solver").contains("chosen_by"));
+}

@@ -42,8 +42,14 @@ const char* to_string(Method m) {
       return "erk";
     case Method::rk4:
       return "rk4";
+    case Method::automatic:
+      return "auto";
   }
   return "?";
+}
+
+Method chosen_method(Method requested) {
+  return requested == Method::automatic ? Method::imex : requested;
 }
 
 // Same sections and key names as the case file, so a summary.json can be read

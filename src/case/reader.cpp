@@ -543,8 +543,8 @@ const std::vector<Entry>& schema() {
       {"run", "checkpoint_every", "[s] simulated time between checkpoints (0: none)",
        real(&Case::run, &RunParams::checkpoint_every, kNonNegative)},
       {"solver", "method", "time integrator",
-       choice(&Case::solver, &SolverParams::method, Method::imex, Method::dirk, Method::bdf,
-              Method::erk, Method::rk4)},
+       choice(&Case::solver, &SolverParams::method, Method::automatic, Method::imex,
+              Method::dirk, Method::bdf, Method::erk, Method::rk4)},
       {"solver", "order", "method order (0: the method's default)",
        integer(&Case::solver, &SolverParams::order, 0)},
       {"solver", "step", "fixed step [s] (0: adaptive)",
@@ -708,7 +708,8 @@ void check_consistency(const Reader& r, const Case& c) {
   check_ids(c.output.trace_ids, r.trace_ids, "output.traces");
   check_ids(c.output.event_ids, r.event_ids, "output.events");
 
-  const auto& s = c.solver;
+  SolverParams s = c.solver;
+  s.method = chosen_method(s.method);  // "auto" allows what its choice allows
   if (s.method == Method::rk4 && !(s.step > 0))
     r.fail_first({{"solver.step", "must be > 0 with method = \"rk4\" (a fixed-step method)"},
                   {"solver.method", "\"rk4\" is fixed-step: it needs [solver] step > 0"}});
@@ -724,7 +725,8 @@ void check_consistency(const Reader& r, const Case& c) {
   if (s.order != 0 && (s.order < min_order || s.order > max_order))
     r.fail_first({{"solver.order", "must be 0 (default) or in [" + std::to_string(min_order) +
                                        ", " + std::to_string(max_order) + "] for method = \"" +
-                                       to_string(s.method) + "\", got " + std::to_string(s.order)},
+                                       to_string(c.solver.method) + "\", got " +
+                                       std::to_string(s.order)},
                   {"solver.method", "does not offer order " + std::to_string(s.order)}});
 }
 

@@ -40,9 +40,11 @@ nlohmann::json to_json(const SolverStats& s) {
 std::unique_ptr<Integrator> make_integrator(const System& system, const SolverParams& solver,
                                             std::span<const double> y0, double t_stop,
                                             IntegratorOptions options, double t0) {
-  if (solver.method == Method::bdf)
-    return std::make_unique<CvodeIntegrator>(system, solver, y0, t0, t_stop, std::move(options));
-  return std::make_unique<ArkStepIntegrator>(system, solver, y0, t0, t_stop, std::move(options));
+  SolverParams chosen = solver;
+  chosen.method = chosen_method(solver.method);
+  if (chosen.method == Method::bdf)
+    return std::make_unique<CvodeIntegrator>(system, chosen, y0, t0, t_stop, std::move(options));
+  return std::make_unique<ArkStepIntegrator>(system, chosen, y0, t0, t_stop, std::move(options));
 }
 
 }  // namespace stickslip

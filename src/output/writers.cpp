@@ -53,6 +53,9 @@ void keep_rows_up_to(const std::filesystem::path& file, double t) {
   std::getline(in, header);
   kept = header + '\n';
   while (std::getline(in, line)) {
+    // A last line without its newline was cut off mid-write (a killed run):
+    // its numbers may be truncated, so it goes whatever its time.
+    if (in.eof()) break;
     // Rows are in time order; times are printed to 12 digits, so the row at t
     // itself may read back a little above it.
     if (std::strtod(line.c_str(), nullptr) > t * (1 + 1e-10)) break;

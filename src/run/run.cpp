@@ -382,6 +382,11 @@ RunResult run_case(const Case& c, const RunOptions& options) {
   }
   result.wall_seconds = seconds_since(wall_start);
 
+  nlohmann::json solver_description = integrator->description();
+  if (c.solver.method == Method::automatic)
+    solver_description["chosen_by"] =
+        "method = \"auto\": imex, the fastest at every error level on every benchmark case "
+        "(docs/PERFORMANCE.md)";
   nlohmann::json summary = {
       {"mu", result.mu},
       {"theta", result.theta},
@@ -393,7 +398,7 @@ RunResult run_case(const Case& c, const RunOptions& options) {
       {"energy_residual", result.energy_residual},
       {"energy_audit_bound", audit_bound},
       {"steady_sliding_mu", system.steady_sliding_mu()},
-      {"solver", integrator->description()},
+      {"solver", solver_description},
       {"solver_stats", to_json(result.stats)},
       {"provenance", {{"git_commit", kGitCommit}, {"sundials_version", SUNDIALS_VERSION}}},
       {"case", to_json(c)},

@@ -16,7 +16,7 @@ enum class InitialState { rest, sliding };  // u = w = 0, or w^x = v everywhere
 // imex: ARKStep additive RK, contacts implicit (exact per-contact stage solve);
 // dirk: ARKStep fully implicit with KLU; bdf: CVODE with KLU; erk: ARKStep
 // explicit; rk4: the classic fourth-order Runge–Kutta at a fixed step.
-enum class Method { imex, dirk, bdf, erk, rk4 };
+enum class Method { imex, dirk, bdf, erk, rk4, automatic };
 enum class ContactSelection { all, none, list };  // which contacts an output covers
 
 struct LatticeParams {
@@ -71,7 +71,7 @@ struct RunParams {
 };
 
 struct SolverParams {
-  Method method = Method::imex;
+  Method method = Method::automatic;  // "auto": chosen_method() picks
   int order = 0;      // 0: the method's default (bdf: 2, see MODEL.md §12)
   double step = 0.0;  // > 0: fixed step [s], adaptivity off (ARKStep methods and rk4)
   double rtol = 1e-6;
@@ -117,5 +117,15 @@ nlohmann::json to_json(const Case& c);
 const char* to_string(GradDiv);
 const char* to_string(InitialState);
 const char* to_string(Method);
+
+// The method a run uses for `requested`: itself, or for "auto" the one the
+// work-precision benchmarks (docs/PERFORMANCE.md) show fastest at every error
+// level on every benchmark case (two contacts, global stick-slip at coverage
+// 0.5, steady sliding; ε down to 3e-3): imex, adaptive or with a fixed step.
+// The others lose on every case for reasons no case parameter changes: erk's
+// steps are held to ~1e-11 s by the contacts' stiffness near rest, dirk and
+// bdf stall in steps of 1e-14–1e-11 s and in KLU factorizations of the whole
+// lattice (9.8 s each on 15×15×10), rk4 needs h ≲ 1e-13 s.
+Method chosen_method(Method requested);
 
 }  // namespace stickslip
