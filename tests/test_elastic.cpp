@@ -5,6 +5,7 @@
 #include <numbers>
 #include <random>
 
+#include "stickslip/model/contacts.hpp"
 #include "stickslip/model/system.hpp"
 
 using namespace stickslip;
@@ -164,5 +165,28 @@ TEST_CASE("long-wave speeds tend to sqrt(G1) and sqrt(G1+G2)", "[elastic]") {
     CHECK(err_l < previous_l / 3.9);
     previous_t = err_t;
     previous_l = err_l;
+  }
+}
+
+TEST_CASE("the lattice forces do not depend on the number of threads", "[elastic][threads]") {
+  // Odd and even layer counts: the parallel loop runs even layers, then odd.
+  for (int nz : {5, 6}) {
+    Case c = lattice_case(7, 5, nz);
+    c.drive.velocity = 1e-3;
+    c.interface.coverage = 0.3;
+    std::mt19937_64 gen(5);
+    std::uniform_real_distribution<double> r(-1.0, 1.0);
+    const System serial(c, place_contacts(c.lattice, c.interface));
+    std::vector<double> y(static_cast<std::size_t>(serial.size()));
+    for (std::size_t i = 0; i < y.size(); ++i) y[i] = (i < y.size() / 2 ? 1e-6 : 1e-3) * r(gen);
+    std::vector<double> expected(y.size()), got(y.size());
+    serial.rhs(1e-4, y, expected);
+    for (int threads : {2, 3}) {
+      c.solver.threads = threads;
+      const System parallel(c, place_contacts(c.lattice, c.interface));
+      parallel.rhs(1e-4, y, got);
+      INFO("nz = " << nz << ", threads = " << threads);
+      CHECK(got == expected);  // bit for bit: every entry sums its terms in one order
+    }
   }
 }

@@ -103,13 +103,15 @@ nlohmann::json to_json(const Case& c) {
         {"atol_displacement", s.atol_displacement},
         {"atol_velocity", s.atol_velocity},
         {"max_steps", s.max_steps},
-        {"audit_bound", s.audit_bound}}},
+        {"audit_bound", s.audit_bound},
+        {"threads", s.threads}}},
       {"output",
        {{"dir", c.output.dir.string()},
         {"interval", c.output.interval},
         {"traces", traces},
         {"events", selection(c.output.events, c.output.event_ids)},
-        {"steps", c.output.steps}}},
+        {"steps", c.output.steps},
+        {"final_state", c.output.final_state}}},
   };
 }
 

@@ -554,6 +554,8 @@ const std::vector<Entry>& schema() {
        real(&Case::solver, &SolverParams::atol_displacement, kPositive)},
       {"solver", "atol_velocity", "[m/s]",
        real(&Case::solver, &SolverParams::atol_velocity, kPositive)},
+      {"solver", "threads", "OpenMP threads for the lattice forces (1: serial)",
+       integer(&Case::solver, &SolverParams::threads, 1)},
       {"solver", "max_steps", "over the whole run",
        integer(&Case::solver, &SolverParams::max_steps, 1)},
       {"solver", "audit_bound", "largest accepted |energy residual| (default 100 x rtol)",

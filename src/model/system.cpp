@@ -33,6 +33,7 @@ System::System(const Case& c, std::vector<Contact> contacts)
       ny_(c.lattice.ny),
       nz_(c.lattice.nz),
       n_(std::int64_t{nx_} * ny_ * nz_),
+      threads_(c.solver.threads),
       contacts_(std::move(contacts)) {
   const auto& mat = c.material;
   a_ = c.lattice.spacing;
@@ -111,37 +112,45 @@ void System::add_lattice_accelerations(double t, std::span<const double> y,
       acc[3 * j + k] -= d;
     }
   };
-  for (int iz = 0; iz < nz_; ++iz)
-    for (int iy = 0; iy < ny_; ++iy)
-      for (int ix = 0; ix < nx_; ++ix) {
-        const std::int64_t i = node(ix, iy, iz);
-        face(i, node(x_next_[ix], iy, iz));
-        face(i, node(ix, y_next_[iy], iz));
-        if (iz + 1 < nz_) face(i, i + std::int64_t{nx_} * ny_);
-      }
-
   // Cells: U_c = (k2/2) D_c², D_c = ¼ Σ_corners s·u, so F_corner = −k2 D_c ¼ s.
-  for (int iz = 0; iz + 1 < nz_; ++iz)
-    for (int iy = 0; iy < ny_; ++iy)
-      for (int ix = 0; ix < nx_; ++ix) {
-        const int xs[2] = {ix, x_next_[ix]};
-        const int ys[2] = {iy, y_next_[iy]};
-        std::int64_t corner[8];
-        double d = 0.0;
-        for (int c = 0; c < 8; ++c) {
-          const Corner& k = kCorners[c];
-          corner[c] = node(xs[k.dx], ys[k.dy], iz + k.dz);
-          const double* uc = u + 3 * corner[c];
-          d += k.sx * uc[0] + k.sy * uc[1] + k.sz * uc[2];
+  auto cell = [&](int ix, int iy, int iz) {
+    const int xs[2] = {ix, x_next_[ix]};
+    const int ys[2] = {iy, y_next_[iy]};
+    std::int64_t corner[8];
+    double d = 0.0;
+    for (int c = 0; c < 8; ++c) {
+      const Corner& k = kCorners[c];
+      corner[c] = node(xs[k.dx], ys[k.dy], iz + k.dz);
+      const double* uc = u + 3 * corner[c];
+      d += k.sx * uc[0] + k.sy * uc[1] + k.sz * uc[2];
+    }
+    const double f = -k2 * 0.0625 * d;  // −k2 (¼ Σ s·u) ¼
+    for (int c = 0; c < 8; ++c) {
+      double* ac = acc + 3 * corner[c];
+      ac[0] += f * kCorners[c].sx;
+      ac[1] += f * kCorners[c].sy;
+      ac[2] += f * kCorners[c].sz;
+    }
+  };
+  // Layer iz's faces and the faces and cells between it and iz + 1 add to
+  // layers iz and iz + 1 only, so the even layers can run at once, then the
+  // odd ones (threads > 1). Every entry receives its terms in the same order
+  // whatever the number of threads: results do not depend on it.
+  for (int parity = 0; parity < 2; ++parity) {
+#pragma omp parallel for schedule(static) num_threads(threads_) if (threads_ > 1)
+    for (int iz = parity; iz < nz_; iz += 2) {
+      for (int iy = 0; iy < ny_; ++iy)
+        for (int ix = 0; ix < nx_; ++ix) {
+          const std::int64_t i = node(ix, iy, iz);
+          face(i, node(x_next_[ix], iy, iz));
+          face(i, node(ix, y_next_[iy], iz));
+          if (iz + 1 < nz_) face(i, i + std::int64_t{nx_} * ny_);
         }
-        const double f = -k2 * 0.0625 * d;  // −k2 (¼ Σ s·u) ¼
-        for (int c = 0; c < 8; ++c) {
-          double* ac = acc + 3 * corner[c];
-          ac[0] += f * kCorners[c].sx;
-          ac[1] += f * kCorners[c].sy;
-          ac[2] += f * kCorners[c].sz;
-        }
-      }
+      if (iz + 1 < nz_)
+        for (int iy = 0; iy < ny_; ++iy)
+          for (int ix = 0; ix < nx_; ++ix) cell(ix, iy, iz);
+    }
+  }
 
   // Drive springs and dashpots to the plate moving at (v, 0, 0) (§5).
   const double kd = kd_over_m_;

@@ -81,6 +81,9 @@ struct SolverParams {
   // Largest accepted |energy-audit residual| at t_end; 0: 100 × rtol, or
   // 1e-4 for a fixed step. Beyond it the run fails and reports no μ.
   double audit_bound = 0.0;
+  // OpenMP threads for the lattice forces (1: serial). Results do not depend
+  // on it; whether it pays: docs/PERFORMANCE.md.
+  int threads = 1;
 };
 
 struct OutputParams {

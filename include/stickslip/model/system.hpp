@@ -142,6 +142,7 @@ class System {
   std::int64_t n_;
   double a_, mass_, g1_, g2_;
   double k1_over_m_, k2_over_m_, kd_over_m_;  // [1/s²]
+  int threads_;  // OpenMP threads of the lattice forces ([solver] threads)
   double eta_, eta_c_;                        // [1/s]
   double v_;                                  // drive velocity [m/s]
   double contact_force_scale_;                // ε f0 / m [m/s²]
