@@ -2,6 +2,7 @@
 // time in, reported as lattice nodes per second ("items_per_second"):
 //   rhs            the full right-hand side (erk, rk4, dirk, bdf)
 //   rhs_explicit   the lattice part of imex (elastic forces, drive, damping)
+//   rhs_explicit_threads   the same with [solver] threads = 1, 2 (wall time)
 //   stage_solve    imex's exact per-contact implicit stage solve
 //   jacobian       refreshing the sparse Jacobian's values (contact blocks only)
 //   klu_setup / klu_solve   factorizing I − γJ with KLU and one solve (dirk, bdf)
@@ -91,6 +92,20 @@ void BM_jacobian(benchmark::State& state) {
   report_nodes(state, *f.system);
 }
 
+// The lattice part with [solver] threads = range(1): wall time per call (the
+// CPU time counts every thread).
+void BM_rhs_explicit_threads(benchmark::State& state) {
+  auto& f = fixture(static_cast<int>(state.range(0)));
+  Case c = f.c;
+  c.solver.threads = static_cast<int>(state.range(1));
+  const System system(c, f.system->contacts());
+  for (auto _ : state) {
+    system.rhs_explicit(0.0, f.y, f.ydot);
+    benchmark::DoNotOptimize(f.ydot.data());
+  }
+  report_nodes(state, system);
+}
+
 // KLU on I − γJ, as ARKStep (dirk) and CVODE (bdf) set it up: the numeric
 // factorization (klu_setup) and one solve (klu_solve).
 struct KluProblem {
@@ -138,6 +153,10 @@ void BM_klu_solve(benchmark::State& state) {
 }  // namespace
 
 BENCHMARK(BM_rhs)->Arg(15)->Arg(30)->Arg(60);
+BENCHMARK(BM_rhs_explicit_threads)
+    ->ArgsProduct({{15, 30, 60}, {1, 2}})
+    ->UseRealTime()
+    ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_rhs_explicit)->Arg(15)->Arg(30)->Arg(60);
 BENCHMARK(BM_stage_solve)->Arg(15)->Arg(30)->Arg(60);
 BENCHMARK(BM_jacobian)->Arg(15)->Arg(30)->Arg(60);
