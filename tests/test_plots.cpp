@@ -170,3 +170,37 @@ TEST_CASE("fig8.py, fig10.py, traces.py and pair_separation.py plot what the run
   CHECK_THAT(ps.out, Catch::Contains("x        separation 1 a") &&
                          Catch::Contains("diagonal separation 2.83 a"));
 }
+
+TEST_CASE("work_precision.py tabulates the least time per error level and the default's ratios",
+          "[plots][work_precision]") {
+  Sandbox box("stickslip_plots_");
+  // A hand-made table: two adaptive settings, two fixed steps, an rk4 run
+  // stopped at a timeout.
+  const std::string header =
+      "method,setting,status,wall_seconds,peak_rss_kb,steps,rhs_explicit,rhs_implicit,"
+      "energy_residual,mu,mu_error,trace_error,event_error,unmatched_events,state_error,"
+      "state_wall_seconds,t_reached,extrapolated_wall_seconds,message\n";
+  fs::create_directories(box.work / "wp");
+  box.write("wp/work_precision.csv",
+            header +
+                "imex,rtol=1e-05,finished,2,1,1,1,1,0,5,3e-3,1e-2,1e-6,0,1e-4,1,,,\n"
+                "imex,rtol=1e-06,finished,4,1,1,1,1,0,5,-2e-5,1e-3,1e-7,0,1e-5,1,,,\n"
+                "imex-fixed,step=1e-07,finished,30,1,1,1,1,0,5,5e-4,1e-2,1e-6,0,1e-4,1,,,\n"
+                "imex-fixed,step=1e-08,finished,90,1,1,1,1,0,5,1e-5,1e-3,1e-7,0,1e-5,1,,,\n"
+                "rk4,step=1e-13,timeout,120,1,,,,,,,,,,,,1e-7,1.8e6,stopped after 120 s\n");
+  const auto r = python(box, "work_precision.py", "wp");
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  check_png(box.work / "wp" / "work_precision.png");
+  const std::string table = slurp(box.work / "wp" / "best_times.md");
+  INFO(table);
+  // μ error levels 1e-2 … 1e-8: imex reaches 1e-2 in 2 s (3e-3), 1e-3 and
+  // 1e-4 in 4 s, not 1e-5 (|−2e-5| > 1e-5); fixed 1e-2 and 1e-3 in 30 s
+  // (5e-4), 1e-4 and 1e-5 in 90 s (1e-5).
+  CHECK_THAT(table, Catch::Contains("| imex | 2 s | 4 s | 4 s | – | – | – | – |"));
+  CHECK_THAT(table, Catch::Contains("| imex-fixed | 30 s | 30 s | 90 s | 90 s | – | – | – |"));
+  // At the default's μ error (2e-5) the cheapest fixed step as accurate is
+  // 1e-8 (90 s): 22.5 times the default's 4 s; rk4 at least 1.8e6 / 4.
+  CHECK_THAT(table, Catch::Contains("step=1e-08, 90 s → ratio 22.5"));
+  CHECK_THAT(table, Catch::Contains("ratio ≥ 4.5e+05"));
+}
