@@ -407,3 +407,25 @@ TEST_CASE("method = auto runs imex and says so; an explicit method is used as gi
   CHECK(erk.at("solver").at("method") == "erk");
   CHECK_FALSE(erk.at("solver").contains("chosen_by"));
 }
+
+TEST_CASE("dirk and bdf ask whether to stop every 10 steps, the others every 500",
+          "[methods][poll]") {
+  // One dirk or bdf step may factorize the whole lattice (seconds on
+  // 15×15×10): a stop request must not wait for 500 of them.
+  Case c = two_contacts();
+  const System s(c, place_contacts(c.lattice, c.interface));
+  for (Method m : {Method::bdf, Method::dirk, Method::imex}) {
+    c.solver.method = m;
+    std::vector<double> y(static_cast<std::size_t>(s.size()));
+    s.initial_state(InitialState::rest, y);
+    const std::vector<double> y0 = y;
+    long polls = 0;
+    IntegratorOptions options;
+    options.poll = [&] { return ++polls == 3; };  // stop at the third
+    const auto integrator = make_integrator(s, c.solver, y0, 1e-3, std::move(options));
+    integrator->advance(1e-3, y);
+    INFO(to_string(m));
+    CHECK(polls == 3);
+    CHECK(integrator->stats().steps == 3 * poll_steps(m));
+  }
+}
