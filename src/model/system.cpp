@@ -136,19 +136,26 @@ void System::add_lattice_accelerations(double t, std::span<const double> y,
   // layers iz and iz + 1 only, so the even layers can run at once, then the
   // odd ones (threads > 1). Every entry receives its terms in the same order
   // whatever the number of threads: results do not depend on it.
-  for (int parity = 0; parity < 2; ++parity) {
-#pragma omp parallel for schedule(static) num_threads(threads_) if (threads_ > 1)
-    for (int iz = parity; iz < nz_; iz += 2) {
+  auto layer = [&](int iz) {
+    for (int iy = 0; iy < ny_; ++iy)
+      for (int ix = 0; ix < nx_; ++ix) {
+        const std::int64_t i = node(ix, iy, iz);
+        face(i, node(x_next_[ix], iy, iz));
+        face(i, node(ix, y_next_[iy], iz));
+        if (iz + 1 < nz_) face(i, i + std::int64_t{nx_} * ny_);
+      }
+    if (iz + 1 < nz_)
       for (int iy = 0; iy < ny_; ++iy)
-        for (int ix = 0; ix < nx_; ++ix) {
-          const std::int64_t i = node(ix, iy, iz);
-          face(i, node(x_next_[ix], iy, iz));
-          face(i, node(ix, y_next_[iy], iz));
-          if (iz + 1 < nz_) face(i, i + std::int64_t{nx_} * ny_);
-        }
-      if (iz + 1 < nz_)
-        for (int iy = 0; iy < ny_; ++iy)
-          for (int ix = 0; ix < nx_; ++ix) cell(ix, iy, iz);
+        for (int ix = 0; ix < nx_; ++ix) cell(ix, iy, iz);
+  };
+  // The serial loop is kept apart from the OpenMP one: outlined for OpenMP,
+  // even with its `if` false, the loop ran 15–30 % slower.
+  for (int parity = 0; parity < 2; ++parity) {
+    if (threads_ > 1) {
+#pragma omp parallel for schedule(static) num_threads(threads_)
+      for (int iz = parity; iz < nz_; iz += 2) layer(iz);
+    } else {
+      for (int iz = parity; iz < nz_; iz += 2) layer(iz);
     }
   }
 
