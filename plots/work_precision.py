@@ -24,6 +24,7 @@ MEASURES = [("mu_error", "μ relative error"), ("trace_error", "trace relative L
             ("event_error", "largest event time error (s)"), ("state_error", "final-state relative L2 error")]
 LEVELS = [1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8]
 DEFAULT = ("imex", "rtol=1e-06")
+COLORS = {"imex": "C0", "imex-fixed": "C1", "rk4": "C2", "erk": "C3", "dirk": "C4", "bdf": "C5"}
 
 
 def number(x):
@@ -97,14 +98,16 @@ def main() -> int:
         done = [r for r in rows if r["status"] == "finished"]
         methods = sorted({r["method"] for r in rows})
         for ax, (key, label) in zip(row, MEASURES):
-            for i, method in enumerate(methods):
-                pts = sorted((float(r["wall_seconds"]), abs(float(r[key])), r["setting"])
-                             for r in done if r["method"] == method and number(r.get(key)))
+            for method in methods:
+                # Along the ladder: loosest tolerance (largest step) first.
+                pts = sorted(((float(r["wall_seconds"]), abs(float(r[key])), r["setting"])
+                              for r in done if r["method"] == method and number(r.get(key))),
+                             key=lambda q: -float(q[2].split("=")[1]))
                 pts = [q for q in pts if q[1] > 0]
                 if not pts:
                     continue
-                ax.loglog([q[0] for q in pts], [q[1] for q in pts], marker="o", ms=4, lw=1, color=f"C{i}",
-                          label=method)
+                ax.loglog([q[0] for q in pts], [q[1] for q in pts], marker="o", ms=4, lw=1,
+                          color=COLORS.get(method, "k"), label=method)
                 for w, e, s in pts:
                     ax.annotate(s.split("=")[1], (w, e), fontsize=6, xytext=(3, 3), textcoords="offset points")
             ax.set_xlabel("wall time (s)")
@@ -113,6 +116,9 @@ def main() -> int:
             ax.grid(alpha=0.3, which="both")
             if ax.get_legend_handles_labels()[0]:
                 ax.legend(fontsize=7)
+            else:
+                ax.text(0.5, 0.5, "not measured for this case", ha="center", va="center",
+                        transform=ax.transAxes, fontsize=8, color="gray")
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     fig.savefig(out.with_suffix(".pdf"))
