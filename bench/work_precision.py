@@ -38,6 +38,7 @@ import signal
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -52,21 +53,28 @@ def run(exe, case, out, sets, repeats, timeout):
         cmd = [exe, "run", str(case), "--out", str(out), "--overwrite", "--quiet"]
         for s in sets:
             cmd += ["--set", s]
-        start = time.perf_counter()
-        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-        deadline = start + timeout
-        timed_out = False
-        while True:
-            pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
-            if pid:
-                break
-            if time.perf_counter() > deadline and not timed_out:
-                proc.send_signal(signal.SIGTERM)
-                timed_out = True
-            time.sleep(0.05)
-        walls.append(time.perf_counter() - start)
-        peak = max(peak, usage.ru_maxrss)
-        err = proc.stderr.read().strip()
+        # stderr goes to a file: a pipe read only at the end would block a run
+        # that writes more than the pipe holds (solver warnings).
+        with tempfile.TemporaryFile(mode="w+") as stderr:
+            start = time.perf_counter()
+            proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=stderr, text=True)
+            deadline = start + timeout
+            timed_out = False
+            while True:
+                pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
+                if pid:
+                    break
+                now = time.perf_counter()
+                if now > deadline and not timed_out:
+                    proc.send_signal(signal.SIGTERM)
+                    timed_out = True
+                elif timed_out and now > deadline + 300:
+                    proc.kill()  # it did not answer its stop request
+                time.sleep(0.05)
+            walls.append(time.perf_counter() - start)
+            peak = max(peak, usage.ru_maxrss)
+            stderr.seek(0)
+            err = stderr.read().strip()
         if timed_out:
             # "interrupted at t = ... s; ..." says how far it got.
             m = re.search(r"interrupted at t = ([0-9.eE+-]+) s", err)
