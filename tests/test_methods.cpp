@@ -31,6 +31,15 @@ Case smooth_case() {
   return c;
 }
 
+// smooth_case() as a run of its own: from t = 0 to t_end, every 1e-7 s.
+Case short_smooth_run(double t_end) {
+  Case c = smooth_case();
+  c.run.t_end = t_end;
+  c.run.average_from = 0.0;
+  c.output.interval = 1e-7;
+  return c;
+}
+
 std::vector<double> solve(const System& s, const SolverParams& solver, double t_end) {
   std::vector<double> y(static_cast<std::size_t>(s.size()));
   s.initial_state(InitialState::sliding, y);
@@ -163,10 +172,7 @@ TEST_CASE("a slip event agrees with the crossing of a dense fixed-step solution"
 }
 
 TEST_CASE("events = none registers no root functions", "[methods][events]") {
-  Case c = smooth_case();
-  c.run.t_end = 2e-6;
-  c.run.average_from = 0.0;
-  c.output.interval = 1e-7;
+  Case c = short_smooth_run(2e-6);
   TempDir dir("stickslip_test_no_events");
   RunOptions options{dir.path / "none", false, true};
   c.output.events = ContactSelection::none;
@@ -199,10 +205,7 @@ TEST_CASE("an adaptive run agrees with a fine fixed-step run", "[methods][compar
 }
 
 TEST_CASE("steps.csv lists every accepted step with its size and error", "[methods][steps]") {
-  Case c = smooth_case();
-  c.run.t_end = 2e-6;
-  c.run.average_from = 0.0;
-  c.output.interval = 1e-7;
+  Case c = short_smooth_run(2e-6);
   c.output.steps = true;
   TempDir dir("stickslip_test_steps");
   for (Method m : {Method::imex, Method::bdf}) {
@@ -345,10 +348,7 @@ TEST_CASE("recording steps.csv does not change a run", "[methods][steps]") {
 
 TEST_CASE("final_state.csv holds every node's state at t_end, only when asked for",
           "[methods][final_state]") {
-  Case c = smooth_case();
-  c.run.t_end = 2e-6;
-  c.run.average_from = 0.0;
-  c.output.interval = 1e-7;
+  Case c = short_smooth_run(2e-6);
   TempDir dir("stickslip_test_final_state");
   run_case(c, {dir.path / "without", false, true});
   CHECK_FALSE(fs::exists(dir.path / "without" / "final_state.csv"));
@@ -388,10 +388,7 @@ TEST_CASE("final_state.csv holds every node's state at t_end, only when asked fo
 
 TEST_CASE("method = auto runs imex and says so; an explicit method is used as given",
           "[methods][auto]") {
-  Case c = smooth_case();
-  c.run.t_end = 1e-6;
-  c.run.average_from = 0.0;
-  c.output.interval = 1e-7;
+  Case c = short_smooth_run(1e-6);
   TempDir dir("stickslip_test_auto");
   REQUIRE(c.solver.method == Method::automatic);  // the default
   auto summary = [&](const std::string& name) {
