@@ -48,6 +48,18 @@ const char* to_string(Method m) {
   return "?";
 }
 
+const char* to_string(LinearSolver s) {
+  switch (s) {
+    case LinearSolver::automatic:
+      return "auto";
+    case LinearSolver::fft:
+      return "fft";
+    case LinearSolver::klu:
+      return "klu";
+  }
+  return "?";
+}
+
 Method chosen_method(Method requested) {
   return requested == Method::automatic ? Method::imex : requested;
 }
@@ -97,6 +109,7 @@ nlohmann::json to_json(const Case& c) {
         {"checkpoint_every", c.run.checkpoint_every}}},
       {"solver",
        {{"method", to_string(s.method)},
+        {"linear_solver", to_string(s.linear_solver)},
         {"order", s.order},
         {"step", s.step},
         {"rtol", s.rtol},

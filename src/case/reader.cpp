@@ -545,6 +545,9 @@ const std::vector<Entry>& schema() {
       {"solver", "method", "time integrator",
        choice(&Case::solver, &SolverParams::method, Method::automatic, Method::imex,
               Method::dirk, Method::bdf, Method::erk, Method::rk4)},
+      {"solver", "linear_solver", "dirk and bdf: fft (exact stage solves) or klu (Newton)",
+       choice(&Case::solver, &SolverParams::linear_solver, LinearSolver::automatic,
+              LinearSolver::fft, LinearSolver::klu)},
       {"solver", "order", "method order (0: the method's default)",
        integer(&Case::solver, &SolverParams::order, 0)},
       {"solver", "step", "fixed step [s] (0: adaptive)",
@@ -718,6 +721,11 @@ void check_consistency(const Reader& r, const Case& c) {
   if (s.method == Method::bdf && s.step > 0)
     r.fail_first({{"solver.step", "must be 0 with method = \"bdf\" (CVODE has no fixed step)"},
                   {"solver.method", "\"bdf\" is adaptive only: leave [solver] step out"}});
+  if (s.linear_solver != LinearSolver::automatic && s.method != Method::dirk &&
+      s.method != Method::bdf)
+    r.fail_first({{"solver.linear_solver", "applies to method = \"dirk\" or \"bdf\" only, not \"" +
+                                               std::string(to_string(s.method)) + "\""},
+                  {"solver.method", "solves no linear systems: leave [solver] linear_solver out"}});
   // Orders SUNDIALS 6.4 offers: ARKStep IMEX 3–5, DIRK 2–5, ERK 2–8; CVODE BDF 1–5; rk4 is 4.
   const int max_order = s.method == Method::erk ? 8 : s.method == Method::rk4 ? 4 : 5;
   const int min_order = s.method == Method::bdf    ? 1

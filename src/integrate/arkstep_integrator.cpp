@@ -23,18 +23,41 @@ ARKodeButcherTable classic_rk4() {
                                    const_cast<double*>(b), nullptr);
 }
 
+// The DIRK tables for each order: stiffly accurate ESDIRKs with stage order 2
+// where SUNDIALS 6.4 has them (the default SDIRK_5_3_4 has stage order 1, and
+// RK stages losing order on the stiff contacts is what holds imex's steps
+// down in the creep). Not ESDIRK547L2SA2, broken in 6.4.1.
+ARKODE_DIRKTableID dirk_table(int order) {
+  switch (order) {
+    case 2:
+      return ARKODE_SDIRK_2_1_2;
+    case 3:
+      return ARKODE_ESDIRK325L2SA_5_2_3;
+    case 5:
+      return ARKODE_ESDIRK547L2SA_7_4_5;
+    default:
+      return ARKODE_ESDIRK436L2SA_6_3_4;
+  }
+}
+
 }  // namespace
 
 ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& solver,
                                      std::span<const double> y0, double t0, double t_stop,
                                      IntegratorOptions options)
-    : SteppingIntegrator(solver, std::move(options), t0), system_(system) {
+    : SteppingIntegrator(solver, std::move(options), t0),
+      system_(system),
+      setup_(method_setup(solver)) {
   y_ = make_serial_vector(y0, ctx_);
-  const Method m = solver.method;
-  // Which parts ARKStep sees: erk and rk4 all explicit, dirk all implicit,
-  // imex the contact forces implicit and the rest explicit.
-  ARKRhsFn fe = m == Method::imex ? explicit_rhs : (m == Method::dirk ? nullptr : full_rhs);
-  ARKRhsFn fi = m == Method::imex ? implicit_rhs : (m == Method::dirk ? full_rhs : nullptr);
+  // Which parts ARKStep sees: explicit methods all of f explicitly, imex the
+  // contact forces implicitly and the rest explicitly, dirk all implicitly.
+  const StageSolve stages = setup_.stages;
+  ARKRhsFn fe = stages == StageSolve::none          ? full_rhs
+                : stages == StageSolve::per_contact ? explicit_rhs
+                                                    : nullptr;
+  ARKRhsFn fi = stages == StageSolve::none          ? nullptr
+                : stages == StageSolve::per_contact ? implicit_rhs
+                                                    : full_rhs;
   arkode_mem_ = ARKStepCreate(fe, fi, t0, y_.get(), ctx_);
   check_created(arkode_mem_, "ARKStepCreate");
   check(ARKStepSetUserData(arkode_mem_, this), "ARKStepSetUserData");
@@ -44,40 +67,68 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
   check(ARKStepSetErrHandlerFn(arkode_mem_, print_solver_message, nullptr),
         "ARKStepSetErrHandlerFn");
 
-  if (m == Method::rk4) {
+  if (solver.method == Method::rk4) {
     ARKodeButcherTable table = classic_rk4();
     check_created(table, "ARKodeButcherTable_Create");
     const int flag = ARKStepSetTables(arkode_mem_, 4, 0, nullptr, table);
     ARKodeButcherTable_Free(table);  // ARKStep keeps its own copy
     check(flag, "ARKStepSetTables");
+  } else if (fe == nullptr) {
+    check(ARKStepSetTableNum(arkode_mem_, dirk_table(solver.order), ARKODE_ERK_NONE),
+          "ARKStepSetTableNum");
   } else if (solver.order > 0) {
     check(ARKStepSetOrder(arkode_mem_, solver.order), "ARKStepSetOrder");
   }
   if (solver.step > 0) check(ARKStepSetFixedStep(arkode_mem_, solver.step), "ARKStepSetFixedStep");
 
-  if (m == Method::imex) {
-    // Stages solved exactly, contact by contact (contact_stage_solver.hpp).
-    stage_solver_ = make_contact_stage_solver(ctx_, system, stage_stats_);
-    check(ARKStepSetNonlinearSolver(arkode_mem_, stage_solver_.get()), "ARKStepSetNonlinearSolver");
-  } else if (m == Method::dirk) {
-    // Newton with KLU on I − γ J; ARKStep reuses J and KLU its symbolic
-    // factorization (the pattern never changes) across steps.
-    jacobian_ = system.jacobian_pattern(JacobianPart::full);
-    matrix_ = make_sparse_matrix(jacobian_, ctx_);
-    linear_solver_.reset(SUNLinSol_KLU(y_.get(), matrix_.get(), ctx_));
-    check_created(linear_solver_.get(), "SUNLinSol_KLU");
-    check(ARKStepSetLinearSolver(arkode_mem_, linear_solver_.get(), matrix_.get()),
-          "ARKStepSetLinearSolver");
-    check(ARKStepSetJacFn(arkode_mem_,
-                          [](double, N_Vector y, N_Vector, SUNMatrix J, void* self, N_Vector,
-                             N_Vector, N_Vector) {
-                            auto* me = static_cast<ArkStepIntegrator*>(self);
-                            return guarded(me->pending_, [&] {
-                              me->system_.jacobian_values(as_span(y), me->jacobian_);
-                              copy_into(me->jacobian_, J);
-                            });
-                          }),
-          "ARKStepSetJacFn");
+  switch (stages) {
+    case StageSolve::none:
+      break;
+    case StageSolve::per_contact:
+      // Stages solved exactly, contact by contact.
+      stage_solver_ = make_exact_stage_solver(
+          ctx_, StagePackage::arkstep,
+          [&system](double, double gamma, std::span<const double> predictor,
+                    std::span<const double>, std::span<double> z) {
+            return system.solve_implicit_stage(gamma, predictor, z);
+          },
+          stage_stats_);
+      check(ARKStepSetNonlinearSolver(arkode_mem_, stage_solver_.get()),
+            "ARKStepSetNonlinearSolver");
+      break;
+    case StageSolve::exact_lattice:
+      lattice_stages_ = std::make_unique<LatticeStageSolver>(system);
+      stage_solver_ = make_exact_stage_solver(
+          ctx_, StagePackage::arkstep,
+          [solver = lattice_stages_.get()](double t, double gamma,
+                                           std::span<const double> predictor,
+                                           std::span<const double> weights, std::span<double> z) {
+            return solver->solve(t, gamma, predictor, weights, z);
+          },
+          stage_stats_);
+      check(ARKStepSetNonlinearSolver(arkode_mem_, stage_solver_.get()),
+            "ARKStepSetNonlinearSolver");
+      break;
+    case StageSolve::newton_klu:
+      // Newton with KLU on I − γ J; ARKStep reuses J and KLU its symbolic
+      // factorization (the pattern never changes) across steps.
+      jacobian_ = system.jacobian_pattern(JacobianPart::full);
+      matrix_ = make_sparse_matrix(jacobian_, ctx_);
+      linear_solver_.reset(SUNLinSol_KLU(y_.get(), matrix_.get(), ctx_));
+      check_created(linear_solver_.get(), "SUNLinSol_KLU");
+      check(ARKStepSetLinearSolver(arkode_mem_, linear_solver_.get(), matrix_.get()),
+            "ARKStepSetLinearSolver");
+      check(ARKStepSetJacFn(arkode_mem_,
+                            [](double, N_Vector y, N_Vector, SUNMatrix J, void* self, N_Vector,
+                               N_Vector, N_Vector) {
+                              auto* me = static_cast<ArkStepIntegrator*>(self);
+                              return guarded(me->pending_, [&] {
+                                me->system_.jacobian_values(as_span(y), me->jacobian_);
+                                copy_into(me->jacobian_, J);
+                              });
+                            }),
+            "ARKStepSetJacFn");
+      break;
   }
 
   init_stepping(options_.watched_contacts.size());
@@ -157,7 +208,7 @@ void ArkStepIntegrator::interpolate(double t, N_Vector y) {
 }
 
 double ArkStepIntegrator::local_error_norm() {
-  if (solver_.method == Method::rk4 ||
+  if (solver_.method == Method::rk4 ||  // no error estimate
       ARKStepGetEstLocalErrors(arkode_mem_, scratch_error_.get()) < 0 ||
       ARKStepGetErrWeights(arkode_mem_, scratch_weights_.get()) < 0)
     return std::numeric_limits<double>::quiet_NaN();  // rk4 has no error estimate
@@ -181,28 +232,35 @@ SolverStats ArkStepIntegrator::stats() const {
                              &s.rhs_implicit, &s.linear_setups, &s.error_test_failures);
   ARKStepGetNumStepSolveFails(arkode_mem_, &s.convergence_failures);
   if (!roots_.empty()) ARKStepGetNumGEvals(arkode_mem_, &s.root_evaluations);
-  if (solver_.method == Method::imex) {
-    s.newton_iterations = stage_stats_.scalar_iterations;
-  } else if (solver_.method == Method::dirk) {
-    ARKStepGetNumNonlinSolvIters(arkode_mem_, &s.newton_iterations);
-    ARKStepGetNumJacEvals(arkode_mem_, &s.jacobian_evaluations);
+  switch (setup_.stages) {
+    case StageSolve::none:
+      break;
+    case StageSolve::per_contact:
+      s.newton_iterations = stage_stats_.iterations;
+      break;
+    case StageSolve::exact_lattice:
+      s.newton_iterations = stage_stats_.iterations;
+      s.linear_setups = lattice_stages_->lattice().factorizations();
+      break;
+    case StageSolve::newton_klu:
+      ARKStepGetNumNonlinSolvIters(arkode_mem_, &s.newton_iterations);
+      ARKStepGetNumJacEvals(arkode_mem_, &s.jacobian_evaluations);
+      break;
   }
   return s;
 }
 
 nlohmann::json ArkStepIntegrator::description() const {
-  static const char* const kNames[] = {
-      "ARKStep IMEX additive Runge-Kutta: lattice explicit, contact forces implicit, each stage "
-      "solved exactly contact by contact",
-      "ARKStep diagonally implicit Runge-Kutta, Newton with KLU on the sparse Jacobian",
-      "CVODE BDF", "ARKStep explicit Runge-Kutta", "classic fourth-order Runge-Kutta (ARKStep)"};
   ARKodeButcherTable bi = nullptr, be = nullptr;
   ARKStepGetCurrentButcherTables(arkode_mem_, &bi, &be);
   const int order = bi ? bi->q : (be ? be->q : 0);
   nlohmann::json d = {{"method", to_string(solver_.method)},
-                      {"integrator", kNames[static_cast<int>(solver_.method)]},
+                      {"integrator", setup_.integrator},
                       {"order", order},
                       {"stages", bi ? bi->stages : (be ? be->stages : 0)}};
+  if (setup_.stages == StageSolve::exact_lattice || setup_.stages == StageSolve::newton_klu)
+    d["linear_solver"] = to_string(setup_.stages == StageSolve::newton_klu ? LinearSolver::klu
+                                                                          : LinearSolver::fft);
   if (solver_.step > 0) {
     d["fixed_step"] = solver_.step;
   } else {

@@ -16,6 +16,7 @@ CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solve
                                  IntegratorOptions options)
     : SteppingIntegrator(solver, std::move(options), t0),
       system_(system),
+      setup_(method_setup(solver)),
       // BDF of order ≥ 3 is not A-stable and the lattice modes are lightly
       // damped: at loose tolerance it produced spurious slips (MODEL.md §12).
       max_order_(solver.order > 0 ? solver.order : 2) {
@@ -31,13 +32,25 @@ CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solve
   check(CVodeSetMaxOrd(cvode_mem_, max_order_), "CVodeSetMaxOrd");
   if (max_order_ >= 3) check(CVodeSetStabLimDet(cvode_mem_, SUNTRUE), "CVodeSetStabLimDet");
 
-  jacobian_ = system.jacobian_pattern(JacobianPart::full);
-  matrix_ = make_sparse_matrix(jacobian_, ctx_);
-  linear_solver_.reset(SUNLinSol_KLU(y_.get(), matrix_.get(), ctx_));
-  check_created(linear_solver_.get(), "SUNLinSol_KLU");
-  check(CVodeSetLinearSolver(cvode_mem_, linear_solver_.get(), matrix_.get()),
-        "CVodeSetLinearSolver");
-  check(CVodeSetJacFn(cvode_mem_, jacobian), "CVodeSetJacFn");
+  if (setup_.stages == StageSolve::exact_lattice) {
+    lattice_stages_ = std::make_unique<LatticeStageSolver>(system);
+    stage_solver_ = make_exact_stage_solver(
+        ctx_, StagePackage::cvode,
+        [solver = lattice_stages_.get()](double t, double gamma, std::span<const double> predictor,
+                                         std::span<const double> weights, std::span<double> z) {
+          return solver->solve(t, gamma, predictor, weights, z);
+        },
+        stage_stats_);
+    check(CVodeSetNonlinearSolver(cvode_mem_, stage_solver_.get()), "CVodeSetNonlinearSolver");
+  } else {
+    jacobian_ = system.jacobian_pattern(JacobianPart::full);
+    matrix_ = make_sparse_matrix(jacobian_, ctx_);
+    linear_solver_.reset(SUNLinSol_KLU(y_.get(), matrix_.get(), ctx_));
+    check_created(linear_solver_.get(), "SUNLinSol_KLU");
+    check(CVodeSetLinearSolver(cvode_mem_, linear_solver_.get(), matrix_.get()),
+          "CVodeSetLinearSolver");
+    check(CVodeSetJacFn(cvode_mem_, jacobian), "CVodeSetJacFn");
+  }
 
   init_stepping(options_.watched_contacts.size());
   if (!roots_.empty())
@@ -131,10 +144,15 @@ SolverStats CvodeIntegrator::stats() const {
   SolverStats s;
   CVodeGetNumSteps(cvode_mem_, &s.steps);
   CVodeGetNumRhsEvals(cvode_mem_, &s.rhs_implicit);
-  CVodeGetNumNonlinSolvIters(cvode_mem_, &s.newton_iterations);
   CVodeGetNumNonlinSolvConvFails(cvode_mem_, &s.convergence_failures);
-  CVodeGetNumLinSolvSetups(cvode_mem_, &s.linear_setups);
-  CVodeGetNumJacEvals(cvode_mem_, &s.jacobian_evaluations);
+  if (lattice_stages_) {
+    s.newton_iterations = stage_stats_.iterations;
+    s.linear_setups = lattice_stages_->lattice().factorizations();
+  } else {
+    CVodeGetNumNonlinSolvIters(cvode_mem_, &s.newton_iterations);
+    CVodeGetNumLinSolvSetups(cvode_mem_, &s.linear_setups);
+    CVodeGetNumJacEvals(cvode_mem_, &s.jacobian_evaluations);
+  }
   CVodeGetNumErrTestFails(cvode_mem_, &s.error_test_failures);
   if (!roots_.empty()) CVodeGetNumGEvals(cvode_mem_, &s.root_evaluations);
   CVodeGetLastStep(cvode_mem_, &s.last_step);
@@ -145,7 +163,9 @@ SolverStats CvodeIntegrator::stats() const {
 nlohmann::json CvodeIntegrator::description() const {
   nlohmann::json d = {
       {"method", "bdf"},
-      {"integrator", "CVODE variable-order BDF, Newton with KLU on the sparse Jacobian"},
+      {"integrator", setup_.integrator},
+      {"linear_solver", to_string(solver_.linear_solver == LinearSolver::klu ? LinearSolver::klu
+                                                                             : LinearSolver::fft)},
       {"max_order", max_order_},
       {"stability_limit_detection", max_order_ >= 3},
       {"adaptive", true},

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "stickslip/integrate/arkstep_integrator.hpp"
 #include "stickslip/integrate/cvode_integrator.hpp"
@@ -37,12 +38,42 @@ nlohmann::json to_json(const SolverStats& s) {
           {"last_step", s.last_step}};
 }
 
+MethodSetup method_setup(const SolverParams& solver) {
+  const bool klu = solver.linear_solver == LinearSolver::klu;
+  const StageSolve implicit = klu ? StageSolve::newton_klu : StageSolve::exact_lattice;
+  const long poll = klu ? 10 : 500;
+  switch (solver.method) {
+    case Method::imex:
+      return {Package::arkstep, StageSolve::per_contact, 500,
+              "ARKStep IMEX additive Runge-Kutta: lattice explicit, contact forces implicit, each "
+              "stage solved exactly contact by contact"};
+    case Method::dirk:
+      return {Package::arkstep, implicit, poll,
+              klu ? "ARKStep diagonally implicit Runge-Kutta, Newton with KLU on the sparse Jacobian"
+                  : "ARKStep diagonally implicit Runge-Kutta, each stage solved exactly: lattice "
+                    "by FFT, contacts by Newton on their coupled speeds"};
+    case Method::bdf:
+      return {Package::cvode, implicit, poll,
+              klu ? "CVODE variable-order BDF, Newton with KLU on the sparse Jacobian"
+                  : "CVODE variable-order BDF, each corrector solved exactly: lattice by FFT, "
+                    "contacts by Newton on their coupled speeds"};
+    case Method::erk:
+      return {Package::arkstep, StageSolve::none, 500, "ARKStep explicit Runge-Kutta"};
+    case Method::rk4:
+      return {Package::arkstep, StageSolve::none, 500,
+              "classic fourth-order Runge-Kutta (ARKStep)"};
+    case Method::automatic:
+      break;
+  }
+  throw std::logic_error("method_setup: resolve \"auto\" first");
+}
+
 std::unique_ptr<Integrator> make_integrator(const System& system, const SolverParams& solver,
                                             std::span<const double> y0, double t_stop,
                                             IntegratorOptions options, double t0) {
   SolverParams chosen = solver;
   chosen.method = chosen_method(solver.method);
-  if (chosen.method == Method::bdf)
+  if (method_setup(chosen).package == Package::cvode)
     return std::make_unique<CvodeIntegrator>(system, chosen, y0, t0, t_stop, std::move(options));
   return std::make_unique<ArkStepIntegrator>(system, chosen, y0, t0, t_stop, std::move(options));
 }

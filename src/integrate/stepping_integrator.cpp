@@ -38,7 +38,7 @@ double SteppingIntegrator::advance_normal(double t_out, std::span<double> y) {
   int flag = kSuccess;
   for (;;) {
     throw_if_out_of_steps();
-    set_max_steps(std::min(poll_steps(solver_.method), solver_.max_steps - steps_taken()));
+    set_max_steps(std::min(method_setup(solver_).poll_steps, solver_.max_steps - steps_taken()));
     flag = evolve(t_out, &t, false);
     if (flag != kTooMuchWork) break;
     if (options_.poll && options_.poll()) return finish(t, y);  // y_: the state at t, a step's end
@@ -80,7 +80,7 @@ double SteppingIntegrator::advance_stepwise(double t_out, std::span<double> y) {
       return finish(t, y);
     }
     throw_if_out_of_steps();
-    if (++since_poll >= poll_steps(solver_.method)) {
+    if (++since_poll >= method_setup(solver_).poll_steps) {
       since_poll = 0;
       if (options_.poll && options_.poll()) {
         interpolate(t_now, y_.get());  // the last step's end

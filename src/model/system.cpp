@@ -93,15 +93,14 @@ void System::initial_state(InitialState initial, std::span<double> y) const {
     for (std::int64_t n = 0; n < n_; ++n) y[w_index(n, 0)] = v_;
 }
 
-// Elastic, damping and drive accelerations (MODEL.md §3–5), overwriting the
-// velocity block of ydot. Faces and cells are visited once each and their
+// Elastic, damping and drive accelerations (MODEL.md §3–5). Faces and cells are visited once each and their
 // forces scattered to both ends, which counts periodic images with their
 // multiplicity on small lattices exactly as §3 defines.
-void System::add_lattice_accelerations(double t, std::span<const double> y,
-                                       std::span<double> ydot) const {
-  const double* u = y.data();
-  const double* w = y.data() + 3 * n_;
-  double* acc = ydot.data() + 3 * n_;
+void System::lattice_accelerations(double t, std::span<const double> u_in,
+                                   std::span<const double> w_in, std::span<double> acc_out) const {
+  const double* u = u_in.data();
+  const double* w = w_in.data();
+  double* acc = acc_out.data();
   std::fill(acc, acc + 3 * n_, 0.0);
   const double k1 = k1_over_m_, k2 = k2_over_m_, eta = eta_;
 
@@ -172,7 +171,7 @@ void System::add_lattice_accelerations(double t, std::span<const double> y,
 void System::add_contact_accelerations(std::span<const double> y, std::span<double> ydot) const {
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const std::int64_t wx = w_index(contact_node_[i], 0);
-    const auto a = contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star,
+    const auto a = stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star,
                                         y[wx], y[wx + 1]);
     ydot[wx] += a[0];
     ydot[wx + 1] += a[1];
@@ -181,7 +180,8 @@ void System::add_contact_accelerations(std::span<const double> y, std::span<doub
 
 void System::rhs_explicit(double t, std::span<const double> y, std::span<double> ydot) const {
   std::copy(y.begin() + 3 * n_, y.begin() + 6 * n_, ydot.begin());  // u' = w
-  add_lattice_accelerations(t, y, ydot);
+  lattice_accelerations(t, y.subspan(0, 3 * n_), y.subspan(3 * n_, 3 * n_),
+                        ydot.subspan(3 * n_, 3 * n_));
   ydot[quadrature_index(work_in)] = power_in(t, y);
   ydot[quadrature_index(dissipated)] = dissipation(y);
   ydot[quadrature_index(friction_impulse)] = friction_force(t, y);
@@ -298,51 +298,70 @@ void System::jacobian_values(std::span<const double> y, SparseJacobian& jac) con
 // Newton runs in x = ln λ, where φ is a Gaussian and well-behaved across the
 // 10¹⁰–10¹⁵ s⁻¹ stiffness near rest that defeats Newton in λ (MODEL.md §12),
 // safeguarded by bisection of the bracket.
+//
+// ∂z/∂b: radially dλ/d|b| = 1/g'(λ), tangentially λ/|b| (z stays parallel
+// to b), so ∂z/∂b = (1/g') b̂b̂ᵀ + (λ/|b|)(I − b̂b̂ᵀ); at b = 0 it is I/(1 + γ η_c)
+// (φ(r)/r and φ'(r) vanish as r → 0).
+ContactStage System::contact_stage(std::size_t i, double gamma, std::array<double, 2> b,
+                                   double predictor_speed, bool derivative) const {
+  ContactStage out;
+  const double damping = 1.0 + gamma * eta_c_;
+  const double gs = gamma * contact_force_scale_;
+  const double bx = b[0], by = b[1];
+  const double b_len = std::hypot(bx, by);
+  const double v_star = contacts_[i].v_star;
+  auto pure_damping = [&] {
+    out.s = {bx / damping, by / damping};
+    if (derivative) out.ds_db = {1.0 / damping, 0.0, 0.0, 1.0 / damping};
+    return out;
+  };
+  if (b_len == 0.0) return pure_damping();
+  auto g = [&](double lambda) { return lambda * damping + gs * law_.phi(lambda / v_star) - b_len; };
+  auto dg = [&](double lambda) { return damping + gs * law_.dphi(lambda / v_star) / v_star; };
+
+  double hi = b_len / damping;
+  // Below this speed φ is under 1e-300: the force is pure damping.
+  double lo = v_star * 1e-40;
+  if (hi <= lo || g(lo) >= 0.0) return pure_damping();
+  // The predictor's speed (b itself when gamma is small) picks the bracket.
+  double lambda = std::clamp(predictor_speed, lo, hi);
+  if (lambda > lo && lambda < hi) (g(lambda) < 0.0 ? lo : hi) = lambda;
+  lambda = std::sqrt(lo * hi);
+  bool converged = false;
+  for (int it = 0; it < 200 && !converged; ++it) {
+    ++out.iterations;
+    const double gl = g(lambda);
+    if (gl == 0.0) break;
+    (gl < 0.0 ? lo : hi) = lambda;
+    const double slope = lambda * dg(lambda);  // dg/dx, x = ln λ
+    double next = slope > 0.0 ? lambda * std::exp(-gl / slope) : 0.0;
+    if (!(next > lo && next < hi)) next = std::sqrt(lo * hi);  // bisect in x
+    converged = std::abs(next - lambda) <= 1e-15 * lambda || hi - lo <= 1e-15 * hi;
+    lambda = next;
+  }
+  if (!std::isfinite(lambda))
+    throw std::runtime_error("contact stage solve produced a non-finite speed");
+  const double scale = lambda / b_len;
+  out.s = {bx * scale, by * scale};
+  if (derivative) {
+    const double radial = 1.0 / dg(lambda);
+    const double ux = bx / b_len, uy = by / b_len;
+    out.ds_db = {scale + (radial - scale) * ux * ux, (radial - scale) * ux * uy,
+                 (radial - scale) * ux * uy, scale + (radial - scale) * uy * uy};
+  }
+  return out;
+}
+
 long System::solve_implicit_stage(double gamma, std::span<const double> predictor,
                                   std::span<double> z) const {
   long iterations = 0;
-  const double damping = 1.0 + gamma * eta_c_;
-  const double gs = gamma * contact_force_scale_;
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const std::int64_t wx = w_index(contact_node_[i], 0);
-    const double bx = z[wx], by = z[wx + 1];
-    const double b_len = std::hypot(bx, by);
-    if (b_len == 0.0) continue;
-    const double v_star = contacts_[i].v_star;
-    auto g = [&](double lambda) {
-      return lambda * damping + gs * law_.phi(lambda / v_star) - b_len;
-    };
-    auto dg = [&](double lambda) { return damping + gs * law_.dphi(lambda / v_star) / v_star; };
-
-    double hi = b_len / damping;
-    // Below this speed φ is under 1e-300: the force is pure damping.
-    double lo = v_star * 1e-40;
-    if (hi <= lo || g(lo) >= 0.0) {
-      z[wx] = bx / damping;
-      z[wx + 1] = by / damping;
-      continue;
-    }
-    // The predictor's speed (b itself when gamma is small) picks the bracket.
-    double lambda = std::clamp(std::hypot(predictor[wx], predictor[wx + 1]), lo, hi);
-    if (lambda > lo && lambda < hi) (g(lambda) < 0.0 ? lo : hi) = lambda;
-    lambda = std::sqrt(lo * hi);
-    bool converged = false;
-    for (int it = 0; it < 200 && !converged; ++it) {
-      ++iterations;
-      const double gl = g(lambda);
-      if (gl == 0.0) break;
-      (gl < 0.0 ? lo : hi) = lambda;
-      const double slope = lambda * dg(lambda);  // dg/dx, x = ln λ
-      double next = slope > 0.0 ? lambda * std::exp(-gl / slope) : 0.0;
-      if (!(next > lo && next < hi)) next = std::sqrt(lo * hi);  // bisect in x
-      converged = std::abs(next - lambda) <= 1e-15 * lambda || hi - lo <= 1e-15 * hi;
-      lambda = next;
-    }
-    if (!std::isfinite(lambda))
-      throw std::runtime_error("contact stage solve produced a non-finite speed");
-    const double scale = lambda / b_len;
-    z[wx] = bx * scale;
-    z[wx + 1] = by * scale;
+    const ContactStage c = contact_stage(i, gamma, {z[wx], z[wx + 1]},
+                                         std::hypot(predictor[wx], predictor[wx + 1]), false);
+    iterations += c.iterations;
+    z[wx] = c.s[0];
+    z[wx + 1] = c.s[1];
   }
   return iterations;
 }
@@ -392,7 +411,7 @@ double System::contact_dissipation(std::span<const double> y) const {
   double sum = 0.0;
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const std::int64_t wx = w_index(contact_node_[i], 0);
-    const auto a = contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star,
+    const auto a = stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star,
                                         y[wx], y[wx + 1]);
     sum -= a[0] * y[wx] + a[1] * y[wx + 1];
   }
@@ -463,6 +482,11 @@ std::array<double, 2> System::contact_velocity(std::size_t i, std::span<const do
   return {y[wx], y[wx + 1]};
 }
 
+std::array<double, 2> System::contact_acceleration(std::size_t i, std::array<double, 2> s) const {
+  return stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star,
+                                        s[0], s[1]);
+}
+
 void System::stick_slip_roots(std::span<const double> y, std::span<const int> watched,
                               std::span<double> g) const {
   for (std::size_t k = 0; k < watched.size(); ++k) {
@@ -479,7 +503,7 @@ bool System::slipping(std::size_t i, std::span<const double> y) const {
 
 double System::contact_force(std::size_t i, std::span<const double> y) const {
   const std::int64_t wx = w_index(contact_node_[i], 0);
-  const auto a = contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star,
+  const auto a = stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star,
                                       y[wx], y[wx + 1]);
   return mass_ * std::hypot(a[0], a[1]);
 }

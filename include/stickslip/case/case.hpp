@@ -17,6 +17,11 @@ enum class InitialState { rest, sliding };  // u = w = 0, or w^x = v everywhere
 // dirk: ARKStep fully implicit with KLU; bdf: CVODE with KLU; erk: ARKStep
 // explicit; rk4: the classic fourth-order Runge–Kutta at a fixed step.
 enum class Method { imex, dirk, bdf, erk, rk4, automatic };
+// How dirk and bdf solve their stage equations: "fft" solves each exactly (the
+// lattice by FFT in x, y and banded solves along z, the contacts by Newton on
+// their coupled speeds); "klu" runs SUNDIALS' Newton with KLU on the sparse
+// Jacobian (small lattices, and as a check); "auto" is fft.
+enum class LinearSolver { automatic, fft, klu };
 enum class ContactSelection { all, none, list };  // which contacts an output covers
 
 struct LatticeParams {
@@ -72,6 +77,7 @@ struct RunParams {
 
 struct SolverParams {
   Method method = Method::automatic;  // "auto": chosen_method() picks
+  LinearSolver linear_solver = LinearSolver::automatic;  // dirk and bdf only
   int order = 0;      // 0: the method's default (bdf: 2, see MODEL.md §12)
   double step = 0.0;  // > 0: fixed step [s], adaptivity off (ARKStep methods and rk4)
   double rtol = 1e-6;
@@ -120,6 +126,7 @@ nlohmann::json to_json(const Case& c);
 const char* to_string(GradDiv);
 const char* to_string(InitialState);
 const char* to_string(Method);
+const char* to_string(LinearSolver);
 
 // The method a run uses for `requested`: itself, or for "auto" the one the
 // work-precision benchmarks (docs/PERFORMANCE.md) show fastest at every error

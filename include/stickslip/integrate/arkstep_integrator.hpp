@@ -4,7 +4,8 @@
 #include <exception>
 #include <vector>
 
-#include "stickslip/integrate/contact_stage_solver.hpp"
+#include "stickslip/integrate/exact_stage_solver.hpp"
+#include "stickslip/integrate/lattice_stage_solver.hpp"
 #include "stickslip/integrate/stepping_integrator.hpp"
 #include "stickslip/integrate/sundials.hpp"
 
@@ -37,8 +38,10 @@ class ArkStepIntegrator final : public SteppingIntegrator {
   [[noreturn]] void throw_failure(int flag, double t) override;
 
   const System& system_;
+  MethodSetup setup_;
   NVectorPtr atol_, scratch_error_, scratch_weights_;
-  ContactStageStats stage_stats_;
+  StageStats stage_stats_;
+  std::unique_ptr<LatticeStageSolver> lattice_stages_;
   NonlinearSolverPtr stage_solver_;
   MatrixPtr matrix_;
   LinearSolverPtr linear_solver_;

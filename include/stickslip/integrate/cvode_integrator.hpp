@@ -1,9 +1,12 @@
 #pragma once
-// CVODE adapter for bdf: variable-order BDF, Newton with KLU on the sparse Jacobian.
+// CVODE adapter for bdf: variable-order BDF, its corrector solved exactly
+// (LatticeStageSolver) or by Newton with KLU on the sparse Jacobian.
 
 #include <exception>
 #include <vector>
 
+#include "stickslip/integrate/exact_stage_solver.hpp"
+#include "stickslip/integrate/lattice_stage_solver.hpp"
 #include "stickslip/integrate/stepping_integrator.hpp"
 #include "stickslip/integrate/sundials.hpp"
 
@@ -36,7 +39,11 @@ class CvodeIntegrator final : public SteppingIntegrator {
   [[noreturn]] void throw_failure(int flag, double t) override;
 
   const System& system_;
+  MethodSetup setup_;
   int max_order_;
+  StageStats stage_stats_;
+  std::unique_ptr<LatticeStageSolver> lattice_stages_;
+  NonlinearSolverPtr stage_solver_;
   NVectorPtr atol_, scratch_error_, scratch_weights_;
   MatrixPtr matrix_;
   LinearSolverPtr linear_solver_;

@@ -46,16 +46,28 @@ struct IntegratorOptions {
   std::function<bool()> poll;
 };
 
-// Steps between calls of IntegratorOptions::poll: small enough that a stop
-// request is answered within seconds even on a 60×60×10 lattice, large
-// enough that returning to the caller costs nothing measurable. dirk and bdf
-// poll every 10: one of their steps may factorize the whole lattice with KLU
-// (9.8 s on 15×15×10), and 500 of them left a SIGTERM unanswered for minutes.
-inline constexpr long kPollSteps = 500;
-inline constexpr long kPollStepsNewton = 10;
-inline long poll_steps(Method m) {
-  return m == Method::dirk || m == Method::bdf ? kPollStepsNewton : kPollSteps;
-}
+// How a method is set up in SUNDIALS: one row of one table (integrator.cpp),
+// read by the adapters; no other file switches on the method.
+enum class Package { arkstep, cvode };
+enum class StageSolve {
+  none,           // explicit (erk, rk4)
+  per_contact,    // f_I = the contact forces, solved contact by contact (imex)
+  exact_lattice,  // f_I = all of f, solved exactly by LatticeStageSolver (dirk, bdf: fft)
+  newton_klu,     // f_I = all of f, SUNDIALS' Newton with KLU (dirk, bdf: klu)
+};
+struct MethodSetup {
+  Package package = Package::arkstep;
+  StageSolve stages = StageSolve::none;
+  // Steps between calls of IntegratorOptions::poll: small enough that a stop
+  // request is answered within seconds even on a 60×60×10 lattice, large
+  // enough that returning to the caller costs nothing measurable. With KLU
+  // every 10: one step may factorize the whole lattice (9.8 s on 15×15×10),
+  // and 500 of them left a SIGTERM unanswered for minutes.
+  long poll_steps = 500;
+  const char* integrator = "";  // how summary.json describes it
+};
+// For a resolved method (not "auto") and its linear_solver.
+MethodSetup method_setup(const SolverParams& solver);
 
 class Integrator {
  public:

@@ -42,6 +42,14 @@ struct SparseJacobian {
 // block-diagonal part treated implicitly by IMEX methods) or all of f.
 enum class JacobianPart { contacts, full };
 
+// One contact's implicit stage equation s − γ a_c(s) = b solved exactly
+// (a_c: its in-plane acceleration, MODEL.md §6), with ∂s/∂b when asked for.
+struct ContactStage {
+  std::array<double, 2> s{};
+  std::array<double, 4> ds_db{};  // row-major; filled only when asked for
+  long iterations = 0;            // scalar Newton iterations
+};
+
 struct EnergyTerms {
   double kinetic = 0.0;  // Σ m|w|²/2
   double elastic = 0.0;  // U of §3
@@ -94,6 +102,23 @@ class System {
   long solve_implicit_stage(double gamma, std::span<const double> predictor,
                             std::span<double> z) const;
 
+  // Contact i's stage equation s − γ a_c(s) = b, solved exactly as
+  // solve_implicit_stage does for every contact; `predictor_speed` picks among
+  // several roots. ∂s/∂b is bounded (‖∂s/∂b‖ ≤ 1 where the force rises with
+  // speed) even where a_c's own derivative reaches 1e15 s⁻¹, which is what
+  // makes it the variable a coupled stage solve can run Newton on.
+  ContactStage contact_stage(std::size_t i, double gamma, std::array<double, 2> b,
+                             double predictor_speed, bool derivative) const;
+
+  // The lattice's accelerations (elastic faces and cells, damping, drive
+  // springs and dashpots to the plate; MODEL.md §3–5) at time t for
+  // displacements u and velocities w (3N values each), into acc (3N). Affine
+  // in (u, w); without the contacts. Solvers that exploit the lattice's
+  // structure read its operator from here (by probing), never from a copy of
+  // the stencil.
+  void lattice_accelerations(double t, std::span<const double> u, std::span<const double> w,
+                             std::span<double> acc) const;
+
   // ∂f/∂y of `part`, with every diagonal entry present (integrators form I − γJ
   // in place). Quadrature rows are left zero: nothing depends on them.
   SparseJacobian jacobian_pattern(JacobianPart part) const;
@@ -114,6 +139,8 @@ class System {
   // and the state it started from.
   double energy_residual(double t, std::span<const double> y, std::span<const double> y0) const;
   std::array<double, 2> contact_velocity(std::size_t i, std::span<const double> y) const;
+  // a_c of §6 (force per mass) of contact i at in-plane velocity s.
+  std::array<double, 2> contact_acceleration(std::size_t i, std::array<double, 2> s) const;
 
   // Stick/slip root functions (MODEL.md §9): g_k = |s_c| − κ v*_c for each
   // watched contact c = watched[k]; positive while it slips.
@@ -133,7 +160,6 @@ class System {
   double drive_velocity() const { return v_; }
 
  private:
-  void add_lattice_accelerations(double t, std::span<const double> y, std::span<double> ydot) const;
   void add_contact_accelerations(std::span<const double> y, std::span<double> ydot) const;
   double lattice_dissipation(std::span<const double> y) const;
   double contact_dissipation(std::span<const double> y) const;

@@ -1,6 +1,7 @@
-#include "stickslip/integrate/contact_stage_solver.hpp"
+#include "stickslip/integrate/exact_stage_solver.hpp"
 
 #include <arkode/arkode_arkstep.h>
+#include <cvode/cvode.h>
 
 #include "stickslip/integrate/sundials.hpp"
 
@@ -8,8 +9,9 @@ namespace stickslip {
 namespace {
 
 struct Content {
-  const System* system;
-  ContactStageStats* stats;
+  StagePackage package;
+  ExactStageSolve solve;
+  StageStats* stats;
 };
 
 Content& content(SUNNonlinearSolver nls) {
@@ -23,30 +25,45 @@ int succeed(SUNNonlinearSolver) {
   return SUN_NLS_SUCCESS;
 }
 
-// ARKStep's stage equation in its corrector form (arkode_arkstep_nls.c):
+// Where the stage data live. ARKStep's stage equation in its corrector form
+// (arkode_arkstep_nls.c):
 //     zcor − γ f_I(zpred + zcor) − sdata = 0,
 // i.e. z − γ f_I(z) = zpred + sdata =: b for the stage value z = zpred + zcor.
-int solve(SUNNonlinearSolver nls, N_Vector, N_Vector zcor, N_Vector, double, sunbooleantype,
-          void* arkode_mem) {
+// CVODE's corrector (cvode_nls.c):
+//     rl1 zn[1] + ycor − γ f(ypred + ycor) = 0,
+// i.e. y − γ f(y) = ypred − rl1 zn[1] =: b for y = ypred + ycor.
+// Either way: b into the package's own stage vector, solved in place (two
+// passes over the state), and the correction out of it.
+int solve(SUNNonlinearSolver nls, N_Vector, N_Vector correction, N_Vector weights, double,
+          sunbooleantype, void* mem) {
   Content& c = content(nls);
   double t = 0.0, gamma = 0.0;
-  N_Vector zpred = nullptr, z = nullptr, fi = nullptr, sdata = nullptr;
-  void* user_data = nullptr;
-  if (ARKStepGetNonlinearSystemData(arkode_mem, &t, &zpred, &z, &fi, &gamma, &sdata, &user_data) <
-      0)
-    return SUN_NLS_MEM_NULL;
-  // Two passes over the state: b into z (every entry but the contacts' is
-  // then final), and the correction out of it.
-  N_VLinearSum(1.0, zpred, 1.0, sdata, z);
+  N_Vector predictor = nullptr, z = nullptr;
+  if (c.package == StagePackage::arkstep) {
+    N_Vector fi = nullptr, sdata = nullptr;
+    void* user_data = nullptr;
+    if (ARKStepGetNonlinearSystemData(mem, &t, &predictor, &z, &fi, &gamma, &sdata, &user_data) <
+        0)
+      return SUN_NLS_MEM_NULL;
+    N_VLinearSum(1.0, predictor, 1.0, sdata, z);
+  } else {
+    N_Vector fn = nullptr, zn1 = nullptr;
+    double rl1 = 0.0;
+    void* user_data = nullptr;
+    if (CVodeGetNonlinearSystemData(mem, &t, &predictor, &z, &fn, &gamma, &rl1, &zn1,
+                                    &user_data) < 0)
+      return SUN_NLS_MEM_NULL;
+    N_VLinearSum(1.0, predictor, -rl1, zn1, z);
+  }
   ++c.stats->solves;
   try {
-    c.stats->last_iterations = c.system->solve_implicit_stage(gamma, as_span(zpred), as_span(z));
+    c.stats->last_iterations = c.solve(t, gamma, as_span(predictor), as_span(weights), as_span(z));
   } catch (const std::exception&) {
     ++c.stats->failures;
-    return SUN_NLS_CONV_RECVR;  // ARKStep retries with a smaller step
+    return SUN_NLS_CONV_RECVR;  // the integrator retries with a smaller step
   }
-  c.stats->scalar_iterations += c.stats->last_iterations;
-  N_VLinearSum(1.0, z, -1.0, zpred, zcor);
+  c.stats->iterations += c.stats->last_iterations;
+  N_VLinearSum(1.0, z, -1.0, predictor, correction);
   return SUN_NLS_SUCCESS;
 }
 
@@ -87,11 +104,11 @@ int num_conv_fails(SUNNonlinearSolver nls, long* n) {
 
 }  // namespace
 
-NonlinearSolverPtr make_contact_stage_solver(SUNContext ctx, const System& system,
-                                             ContactStageStats& stats) {
+NonlinearSolverPtr make_exact_stage_solver(SUNContext ctx, StagePackage package,
+                                           ExactStageSolve solve_stage, StageStats& stats) {
   SUNNonlinearSolver nls = SUNNonlinSolNewEmpty(ctx);
   check_created(nls, "SUNNonlinSolNewEmpty");
-  nls->content = new Content{&system, &stats};
+  nls->content = new Content{package, std::move(solve_stage), &stats};
   nls->ops->gettype = get_type;
   nls->ops->initialize = succeed;
   nls->ops->solve = solve;

@@ -1,0 +1,86 @@
+#pragma once
+// Exact solves with the lattice part of an implicit stage, by FFT in x and y.
+//
+// An implicit stage z − γ f(z) = b with the lattice's f (u' = w,
+// w' = −K u − C w + forcing; MODEL.md §3–5) reduces, after u = b_u + γ w, to
+//     M(γ) w = r,   M(γ) = I + γ C + γ² K,
+// which is symmetric positive definite. K and C are constant and invariant
+// under translations in x and y (periodic), so a 2D real FFT over (x, y)
+// splits M into Nx·(Ny/2+1) independent Hermitian systems of 3 Nz unknowns,
+// block-tridiagonal along z (faces and cells reach one layer up or down).
+// Each is factorized once per γ (block LDLᴴ with 3×3 blocks) and reused.
+//
+// The blocks are read off the System by probing: the response of
+// System::lattice_accelerations to a unit displacement (for K) or velocity
+// (for C) of one node in each layer, Fourier-transformed. So the solver never
+// copies the stencil, and small lattices (Nx = 1, 2: faces that meet their
+// own periodic image) come out as the System defines them.
+//
+// The bottom layer's Green's function (M⁻¹ between the in-plane velocities of
+// two bottom nodes) depends only on their offset; one inverse FFT per γ gives
+// it for every offset (`green`).
+
+#include <complex>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "stickslip/model/system.hpp"
+
+namespace stickslip {
+
+class LatticeSolver {
+ public:
+  explicit LatticeSolver(const System& system);
+  ~LatticeSolver();
+  LatticeSolver(const LatticeSolver&) = delete;
+  LatticeSolver& operator=(const LatticeSolver&) = delete;
+
+  // Factorizes M(γ) and computes the bottom layer's Green's function, unless
+  // γ is the one already factorized.
+  void set_gamma(double gamma);
+  double gamma() const { return gamma_; }
+
+  // w = M(γ)⁻¹ r for the velocity block (3N values, the state's node order).
+  // r and w may be the same span.
+  void solve(std::span<const double> r, std::span<double> w);
+
+  // (M(γ)⁻¹) between in-plane component a of bottom node (ix + dx, iy + dy)
+  // and component b of bottom node (ix, iy), for any (ix, iy); a, b ∈ {0, 1}
+  // (x, y). Offsets wrap periodically.
+  double green(int dx, int dy, int a, int b) const;
+
+  long factorizations() const { return factorizations_; }
+  long solves() const { return solves_; }
+
+ private:
+  using Complex = std::complex<double>;
+  struct Plans;
+
+  void probe(const System& system);
+  void factorize_mode(std::int64_t m);
+  void solve_mode(std::int64_t m, Complex* x) const;
+  void transform_forward();   // real_ → spectrum_
+  void transform_backward();  // spectrum_ → real_, scaled by 1/(Nx Ny)
+
+  int nx_, ny_, nz_;
+  std::int64_t modes_;  // Nx/2+1 times Ny (the half spectrum of a real 2D field)
+  double gamma_ = -1.0;
+  long factorizations_ = 0, solves_ = 0;
+  // Per mode and layer, 3×3 complex blocks (column-major, 9 values each):
+  // K̂ and Ĉ on the diagonal (iz, iz) and above it (iz, iz+1).
+  std::vector<Complex> k_diag_, k_up_, c_diag_, c_up_;
+  // The factorization of M̂ per mode and layer: S_iz⁻¹, the upper block B_iz
+  // of M̂, and the multiplier W_iz = B_izᴴ S_iz⁻¹.
+  std::vector<Complex> s_inv_, upper_, multiplier_;
+  std::vector<double> green_;             // [a][b][iy][ix]
+  std::vector<Complex> green_spectrum_;  // [mode][a][b]
+  // FFT buffers: the velocity field (3N reals) and its half spectrum laid out
+  // [mode][layer][component], so each mode's system is contiguous.
+  std::vector<double> real_;
+  std::vector<Complex> spectrum_;
+  std::unique_ptr<Plans> plans_;
+};
+
+}  // namespace stickslip

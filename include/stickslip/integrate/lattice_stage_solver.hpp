@@ -1,0 +1,60 @@
+#pragma once
+// Exact solution of a fully implicit stage, z − γ f(t, z) = b, for all of f
+// (lattice, contacts and the three quadratures), for dirk and bdf.
+//
+// The lattice is linear, so eliminating it leaves a nonlinear system on the
+// 2 N_c contact velocities alone (derivation in the .cpp). That system is
+// solved by Newton in variables where it is smooth, with every contact's own
+// equation solved exactly in log-speed as imex's stage solve does: no Newton
+// iteration ever runs on the 10¹⁰–10¹⁵ s⁻¹ contact stiffness near rest that
+// stalls Newton on the whole state (MODEL.md §12). The lattice costs two FFT
+// solves (LatticeSolver) per stage; nothing here knows of SUNDIALS.
+
+#include <Eigen/Dense>
+#include <span>
+#include <vector>
+
+#include "stickslip/integrate/lattice_solver.hpp"
+#include "stickslip/model/system.hpp"
+
+namespace stickslip {
+
+class LatticeStageSolver {
+ public:
+  explicit LatticeStageSolver(const System& system);
+
+  // z holds b on entry and the solution on return. `predictor` (the
+  // integrator's guess for z) picks among several roots on the
+  // velocity-weakening branch and starts Newton; `weights` are the error
+  // weights 1/(rtol |y| + atol): the contacts' speeds are converged to 1e-6 of
+  // the integrator's tolerance. Returns the Newton iterations on the
+  // contacts' coupled speeds; throws std::runtime_error when they do not
+  // converge (the integrator then retries with a smaller step).
+  long solve(double t, double gamma, std::span<const double> predictor,
+             std::span<const double> weights, std::span<double> z);
+
+  const LatticeSolver& lattice() const { return lattice_; }
+
+ private:
+  void set_gamma(double gamma);
+  long solve_contacts(std::span<const double> predictor, std::span<const double> weights);
+
+  const System& system_;
+  LatticeSolver lattice_;
+  std::int64_t nodes_;
+  std::size_t contacts_;
+  std::vector<std::int64_t> contact_w_;  // state index of each contact's w^x
+  // For the γ last seen: the bottom layer's self Green's function ḡ (the
+  // mean of its xx and yy entries) and the coupling H = (G − ḡ I)/ḡ between
+  // the contacts' velocities (2 N_c × 2 N_c).
+  double gamma_ = -1.0;
+  double self_green_ = 0.0;
+  Eigen::MatrixXd coupling_;
+  // Scratch.
+  std::vector<double> zero_, acc_, correction_;
+  Eigen::VectorXd free_speed_, beta_, sigma_, residual_, trial_;
+  Eigen::MatrixXd jacobian_;
+  std::vector<ContactStage> stages_;
+};
+
+}  // namespace stickslip

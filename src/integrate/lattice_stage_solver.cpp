@@ -1,0 +1,159 @@
+#include "stickslip/integrate/lattice_stage_solver.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace stickslip {
+
+// The stage equation, with f split as MODEL.md §3–6 define it
+// (a_L: lattice accelerations, affine; a_c: contact accelerations on the
+// in-plane velocities s = P w of the contact nodes; P picks them):
+//     u − γ w = b_u,   w − γ (a_L(t, u, w) + Pᵀ a_c(P w)) = b_w.
+// a_L(t, u, w) = −K u − C w + g(t), so u = b_u + γ w leaves
+//     M w = r + γ Pᵀ a_c(P w),   M = I + γ C + γ² K,   r = b_w + γ a_L(t, b_u, 0),
+// and w = w0 + γ M⁻¹ Pᵀ a_c with w0 = M⁻¹ r. On the contacts, with
+// G = P M⁻¹ Pᵀ (the bottom layer's Green's function between contact sites):
+//     s = s0 + γ G a_c(s),   s0 = P w0.
+// Split G = ḡ (I + H), ḡ its mean self term. With β = s0 + γ ḡ H a_c(s), each
+// contact's own equation s_i − γ ḡ a_c(s_i) = β_i is imex's scalar stage
+// equation, solved exactly in log-speed: s_i = Σ_i(β_i) (System::contact_stage),
+// and a_c(s) = (Σ(β) − β)/(γ ḡ). What remains is
+//     F(β) = β − s0 − H (Σ(β) − β) = 0,   ∂F/∂β = I + H (I − E),
+// E = blockdiag(∂Σ_i/∂β_i). E is bounded (‖E_i‖ ≤ 1 where the force rises with
+// speed), so Newton on β is well conditioned where Newton on s would meet
+// ∂a_c/∂s ~ 1e15 s⁻¹. One contact alone, or contacts the lattice does not
+// couple (H = 0), need no iteration at all.
+
+LatticeStageSolver::LatticeStageSolver(const System& system)
+    : system_(system),
+      lattice_(system),
+      nodes_(system.num_nodes()),
+      contacts_(system.contacts().size()),
+      zero_(static_cast<std::size_t>(3 * nodes_), 0.0),
+      acc_(zero_.size()),
+      correction_(zero_.size()) {
+  for (std::size_t i = 0; i < contacts_; ++i)
+    contact_w_.push_back(system.w_index(system.contact_node(i), 0));
+  const auto n = static_cast<Eigen::Index>(2 * contacts_);
+  coupling_.resize(n, n);
+  jacobian_.resize(n, n);
+  for (auto* v : {&free_speed_, &beta_, &sigma_, &residual_, &trial_}) v->resize(n);
+  stages_.resize(contacts_);
+}
+
+void LatticeStageSolver::set_gamma(double gamma) {
+  lattice_.set_gamma(gamma);
+  if (gamma == gamma_) return;
+  gamma_ = gamma;
+  self_green_ = 0.5 * (lattice_.green(0, 0, 0, 0) + lattice_.green(0, 0, 1, 1));
+  const auto& sites = system_.contacts();
+  for (std::size_t i = 0; i < contacts_; ++i)
+    for (std::size_t j = 0; j < contacts_; ++j)
+      for (int a = 0; a < 2; ++a)
+        for (int b = 0; b < 2; ++b)
+          coupling_(2 * i + a, 2 * j + b) =
+              lattice_.green(sites[i].ix - sites[j].ix, sites[i].iy - sites[j].iy, a, b) /
+                  self_green_ -
+              (i == j && a == b ? 1.0 : 0.0);
+}
+
+long LatticeStageSolver::solve(double t, double gamma, std::span<const double> predictor,
+                               std::span<const double> weights, std::span<double> z) {
+  const std::size_t n3 = static_cast<std::size_t>(3 * nodes_);
+  const auto u = z.subspan(0, n3), w = z.subspan(n3, n3);
+  set_gamma(gamma);
+  // r = b_w + γ a_L(t, b_u, 0), then w0 = M⁻¹ r, in place.
+  system_.lattice_accelerations(t, u, zero_, acc_);
+  for (std::size_t r = 0; r < n3; ++r) w[r] += gamma * acc_[r];
+  lattice_.solve(w, w);
+
+  long iterations = 0;
+  if (contacts_ > 0) {
+    for (std::size_t i = 0; i < contacts_; ++i)
+      for (int k = 0; k < 2; ++k) free_speed_(2 * i + k) = z[contact_w_[i] + k];
+    iterations = solve_contacts(predictor, weights);
+    // w = w0 + M⁻¹ (γ Pᵀ a_c), γ a_c = (Σ(β) − β)/ḡ.
+    std::fill(correction_.begin(), correction_.end(), 0.0);
+    for (std::size_t i = 0; i < contacts_; ++i)
+      for (int k = 0; k < 2; ++k)
+        correction_[contact_w_[i] - n3 + k] = (sigma_(2 * i + k) - beta_(2 * i + k)) / self_green_;
+    lattice_.solve(correction_, correction_);
+    for (std::size_t r = 0; r < n3; ++r) w[r] += correction_[r];
+  }
+  for (std::size_t r = 0; r < n3; ++r) u[r] += gamma * w[r];
+
+  // The quadratures: q = b_q + γ q'(t, z), their rates depending on u and w only.
+  z[system_.quadrature_index(System::work_in)] += gamma * system_.power_in(t, z);
+  z[system_.quadrature_index(System::dissipated)] += gamma * system_.dissipation(z);
+  z[system_.quadrature_index(System::friction_impulse)] += gamma * system_.friction_force(t, z);
+  return iterations;
+}
+
+long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
+                                        std::span<const double> weights) {
+  constexpr int kMaxIterations = 30;
+  constexpr double kTolerance = 1e-6;   // of the integrator's error weights
+  constexpr double kStagnated = 1e-3;   // accepted if no further progress is possible
+  const double gamma_self = gamma_ * self_green_;
+  std::vector<double> predicted_speed(contacts_);
+  for (std::size_t i = 0; i < contacts_; ++i)
+    predicted_speed[i] = std::hypot(predictor[contact_w_[i]], predictor[contact_w_[i] + 1]);
+
+  // F(β) and its weighted max norm; Σ(β) into sigma_, ∂Σ/∂β into stages_.
+  auto evaluate = [&](const Eigen::VectorXd& beta) {
+    for (std::size_t i = 0; i < contacts_; ++i) {
+      stages_[i] = system_.contact_stage(i, gamma_self, {beta(2 * i), beta(2 * i + 1)},
+                                         predicted_speed[i], true);
+      sigma_(2 * i) = stages_[i].s[0];
+      sigma_(2 * i + 1) = stages_[i].s[1];
+    }
+    residual_ = beta - free_speed_ - coupling_ * (sigma_ - beta);
+    double norm = 0.0;
+    for (std::size_t i = 0; i < contacts_; ++i)
+      for (int k = 0; k < 2; ++k)
+        norm = std::max(norm, std::abs(residual_(2 * i + k)) * weights[contact_w_[i] + k]);
+    return norm;
+  };
+
+  // Start from the predictor's contact forces: β = s0 + γ ḡ H a_c(s_pred).
+  for (std::size_t i = 0; i < contacts_; ++i) {
+    const auto a = system_.contact_acceleration(
+        i, {predictor[contact_w_[i]], predictor[contact_w_[i] + 1]});
+    trial_(2 * i) = gamma_self * a[0];
+    trial_(2 * i + 1) = gamma_self * a[1];
+  }
+  beta_ = free_speed_ + coupling_ * trial_;
+  double norm = evaluate(beta_);
+  for (int it = 0; it < kMaxIterations; ++it) {
+    if (!std::isfinite(norm)) break;
+    if (norm <= kTolerance) return it;
+    // J = I + H − H E.
+    jacobian_ = coupling_;
+    for (std::size_t j = 0; j < contacts_; ++j) {
+      const auto& e = stages_[j].ds_db;
+      const Eigen::VectorXd h0 = coupling_.col(2 * j), h1 = coupling_.col(2 * j + 1);
+      jacobian_.col(2 * j) -= h0 * e[0] + h1 * e[2];
+      jacobian_.col(2 * j + 1) -= h0 * e[1] + h1 * e[3];
+    }
+    jacobian_.diagonal().array() += 1.0;
+    const Eigen::VectorXd step = jacobian_.partialPivLu().solve(-residual_);
+    // Backtrack while the residual grows (the velocity-weakening branch).
+    double fraction = 1.0, trial_norm = 0.0;
+    for (;;) {
+      trial_ = beta_ + fraction * step;
+      trial_norm = evaluate(trial_);
+      if (trial_norm < norm || fraction < 1.0 / 64) break;
+      fraction *= 0.5;
+    }
+    if (!(trial_norm < norm) && norm <= kStagnated) {
+      evaluate(beta_);  // back to the better point: rounding, not divergence
+      return it + 1;
+    }
+    beta_ = trial_;
+    norm = trial_norm;
+  }
+  throw std::runtime_error("the contacts' coupled stage equations did not converge");
+}
+
+}  // namespace stickslip
