@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <nlohmann/json.hpp>
 
 #include "stickslip/analysis/compare.hpp"
@@ -93,7 +94,8 @@ TEST_CASE("each method converges at its stated order", "[methods][order]") {
   for (auto [method, order] :
        {Trial{Method::erk, 2}, Trial{Method::erk, 3}, Trial{Method::erk, 4}, Trial{Method::rk4, 0},
         Trial{Method::imex, 3}, Trial{Method::imex, 4}, Trial{Method::imex, 5},
-        Trial{Method::dirk, 2}, Trial{Method::dirk, 3}, Trial{Method::dirk, 4}}) {
+        Trial{Method::dirk, 2}, Trial{Method::dirk, 3}, Trial{Method::dirk, 4},
+        Trial{Method::dirk, 5}}) {
     SolverParams p;
     p.method = method;
     p.order = order;
@@ -405,14 +407,22 @@ TEST_CASE("method = auto runs imex and says so; an explicit method is used as gi
   CHECK_FALSE(erk.at("solver").contains("chosen_by"));
 }
 
-TEST_CASE("dirk and bdf ask whether to stop every 10 steps, the others every 500",
+TEST_CASE("dirk and bdf with KLU ask whether to stop every 10 steps, the others every 500",
           "[methods][poll]") {
-  // One dirk or bdf step may factorize the whole lattice (seconds on
+  // One Newton step with KLU may factorize the whole lattice (seconds on
   // 15×15×10): a stop request must not wait for 500 of them.
   Case c = two_contacts();
   const System s(c, place_contacts(c.lattice, c.interface));
-  for (Method m : {Method::bdf, Method::dirk, Method::imex}) {
+  struct Trial {
+    Method method;
+    LinearSolver linear_solver;
+    long poll_steps;
+  };
+  for (auto [m, linear_solver, expected] :
+       {Trial{Method::bdf, LinearSolver::klu, 10}, Trial{Method::dirk, LinearSolver::klu, 10},
+        Trial{Method::bdf, LinearSolver::fft, 500}, Trial{Method::imex, LinearSolver::automatic, 500}}) {
     c.solver.method = m;
+    c.solver.linear_solver = linear_solver;
     std::vector<double> y(static_cast<std::size_t>(s.size()));
     s.initial_state(InitialState::rest, y);
     const std::vector<double> y0 = y;
@@ -421,8 +431,61 @@ TEST_CASE("dirk and bdf ask whether to stop every 10 steps, the others every 500
     options.poll = [&] { return ++polls == 3; };  // stop at the third
     const auto integrator = make_integrator(s, c.solver, y0, 1e-3, std::move(options));
     integrator->advance(1e-3, y);
-    INFO(to_string(m));
+    INFO(to_string(m) << " with " << to_string(linear_solver));
+    CHECK(method_setup(c.solver).poll_steps == expected);
     CHECK(polls == 3);
-    CHECK(integrator->stats().steps == 3 * method_setup(c.solver).poll_steps);
+    CHECK(integrator->stats().steps == 3 * expected);
+  }
+}
+
+namespace {
+
+// Onsets of contact `id`'s slips in a run's events.csv.
+std::vector<double> slip_onsets(const fs::path& dir, int id) {
+  std::ifstream in(dir / "events.csv");
+  std::vector<double> onsets;
+  std::string line;
+  std::getline(in, line);  // header: t,contact,kind,speed,force
+  while (std::getline(in, line)) {
+    std::istringstream row(line);
+    std::string t, contact, kind;
+    std::getline(row, t, ',');
+    std::getline(row, contact, ',');
+    std::getline(row, kind, ',');
+    if (std::stoi(contact) == id && kind == "slip") onsets.push_back(std::stod(t));
+  }
+  return onsets;
+}
+
+}  // namespace
+
+TEST_CASE("dirk and bdf run from rest through the pair's first slips, at imex's slip times",
+          "[methods][implicit]") {
+  // The Newton trap of MODEL.md §12 (steps of 1e-13 s near t = 1e-8 s) is
+  // what stopped both methods before the stages were solved exactly.
+  Case c = two_contacts();
+  c.run.t_end = 1.5e-3;  // three slips of contact 0, period ≈ 0.29 ms
+  c.run.average_from = 5e-4;
+  TempDir dir("stickslip_test_implicit_from_rest");
+  Case reference = c;
+  reference.solver.method = Method::imex;
+  reference.solver.rtol = 1e-9;
+  run_case(reference, {dir.path / "reference", false, true});
+  const auto expected = slip_onsets(dir.path / "reference", 0);
+  REQUIRE(expected.size() == 3);
+  const double period = expected[2] - expected[1];
+
+  for (Method m : {Method::dirk, Method::bdf}) {
+    c.solver.method = m;  // at the default tolerance, rtol 1e-6
+    const fs::path out = dir.path / to_string(m);
+    const RunResult r = run_case(c, {out, false, true});  // throws if the audit fails
+    INFO(to_string(m) << ": energy residual " << r.energy_residual);
+    CHECK(std::abs(r.energy_residual) < 100 * c.solver.rtol);
+    const auto onsets = slip_onsets(out, 0);
+    REQUIRE(onsets.size() == expected.size());
+    for (std::size_t k = 0; k < onsets.size(); ++k) {
+      INFO("slip " << k << " at " << onsets[k] << " s, imex " << expected[k] << " s");
+      CHECK(std::abs(onsets[k] - expected[k]) < 0.01 * period);
+    }
   }
 }
