@@ -5,9 +5,14 @@
 //   rhs_explicit_threads   the same with [solver] threads = 1, 2 (wall time)
 //   stage_solve    imex's exact per-contact implicit stage solve
 //   jacobian       refreshing the sparse Jacobian's values (contact blocks only)
-//   klu_setup / klu_solve   factorizing I − γJ with KLU and one solve (dirk, bdf)
-// on 15×15×10, 30×30×10 and 60×60×10 lattices at coverage 0.5, in a state
-// taken from a short integration from rest (contacts stuck and creeping).
+//   klu_setup / klu_solve   factorizing I − γJ with KLU and one solve (dirk, bdf: klu)
+//   lattice_factorize      LatticeSolver::set_gamma: M(γ) per Fourier mode and the
+//                          bottom layer's Green's function (dirk, bdf: once per γ)
+//   lattice_solve          one FFT solve with M(γ) (two per implicit stage)
+//   implicit_stage/N/P     LatticeStageSolver::solve, a whole dirk or bdf stage, at
+//                          coverage P % (the contacts' coupled Newton grows with N_c)
+// on 15×15×10, 30×30×10 and 60×60×10 lattices at coverage 0.5 (unless given),
+// in a state taken from a short integration from rest (contacts stuck and creeping).
 //     build/bench/stickslip_micro [--benchmark_filter=rhs]
 #include <benchmark/benchmark.h>
 #include <sunlinsol/sunlinsol_klu.h>
@@ -17,6 +22,8 @@
 #include <memory>
 
 #include "stickslip/integrate/integrator.hpp"
+#include "stickslip/integrate/lattice_solver.hpp"
+#include "stickslip/integrate/lattice_stage_solver.hpp"
 #include "stickslip/integrate/sundials.hpp"
 #include "stickslip/model/contacts.hpp"
 #include "stickslip/model/system.hpp"
@@ -32,13 +39,13 @@ struct Fixture {
 };
 
 // One system per lattice size, advanced 2 µs from rest so velocities are not zero.
-Fixture& fixture(int n) {
-  static std::map<int, std::unique_ptr<Fixture>> cache;
-  auto& f = cache[n];
+Fixture& fixture(int n, double coverage = 0.5) {
+  static std::map<std::pair<int, double>, std::unique_ptr<Fixture>> cache;
+  auto& f = cache[{n, coverage}];
   if (!f) {
     f = std::make_unique<Fixture>();
     f->c.lattice = {n, n, 10, 1e-4};
-    f->c.interface.coverage = 0.5;
+    f->c.interface.coverage = coverage;
     f->system = std::make_unique<System>(f->c, place_contacts(f->c.lattice, f->c.interface));
     f->y.resize(static_cast<std::size_t>(f->system->size()));
     f->ydot.resize(f->y.size());
@@ -152,7 +159,56 @@ void BM_klu_solve(benchmark::State& state) {
 
 }  // namespace
 
+void BM_lattice_factorize(benchmark::State& state) {
+  auto& f = fixture(static_cast<int>(state.range(0)));
+  LatticeSolver solver(*f.system);
+  double gamma = 1e-7;
+  for (auto _ : state) {
+    gamma *= 1.0001;  // a new γ each time, as every adaptive step brings
+    solver.set_gamma(gamma);
+  }
+  report_nodes(state, *f.system);
+}
+
+void BM_lattice_solve(benchmark::State& state) {
+  auto& f = fixture(static_cast<int>(state.range(0)));
+  LatticeSolver solver(*f.system);
+  solver.set_gamma(1e-7);
+  const auto n3 = static_cast<std::size_t>(3 * f.system->num_nodes());
+  std::vector<double> w(f.y.begin() + n3, f.y.begin() + 2 * n3);
+  for (auto _ : state) {
+    solver.solve(w, w);
+    benchmark::DoNotOptimize(w.data());
+  }
+  report_nodes(state, *f.system);
+}
+
+void BM_implicit_stage(benchmark::State& state) {
+  auto& f = fixture(static_cast<int>(state.range(0)), static_cast<double>(state.range(1)) / 100);
+  LatticeStageSolver solver(*f.system);
+  std::vector<double> z = f.y, weights(f.y.size());
+  for (std::size_t i = 0; i < z.size(); ++i) weights[i] = 1.0 / (1e-6 * std::abs(f.y[i]) + 1e-9);
+  long iterations = 0;
+  for (auto _ : state) {
+    std::copy(f.y.begin(), f.y.end(), z.begin());  // b, the state itself as a stand-in
+    iterations += solver.solve(0.0, 1e-7, f.y, weights, z);
+  }
+  state.counters["newton_per_stage"] =
+      static_cast<double>(iterations) / static_cast<double>(state.iterations());
+  state.counters["contacts"] = static_cast<double>(f.system->contacts().size());
+  report_nodes(state, *f.system);
+}
+
 BENCHMARK(BM_rhs)->Arg(15)->Arg(30)->Arg(60);
+BENCHMARK(BM_lattice_factorize)->Arg(15)->Arg(30)->Arg(60);
+BENCHMARK(BM_lattice_solve)->Arg(15)->Arg(30)->Arg(60);
+BENCHMARK(BM_implicit_stage)
+    ->Args({15, 4})
+    ->Args({15, 50})
+    ->Args({30, 4})
+    ->Args({30, 50})
+    ->Args({60, 4})
+    ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_rhs_explicit_threads)
     ->ArgsProduct({{15, 30, 60}, {1, 2}})
     ->UseRealTime()

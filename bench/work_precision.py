@@ -128,7 +128,9 @@ def main() -> int:
     p.add_argument("--exe", default=str(Path(__file__).resolve().parent.parent / "build" / "stickslip"))
     p.add_argument("--rtols", default="1e-4,1e-5,1e-6,1e-7")
     p.add_argument("--imex-steps", default="")
+    p.add_argument("--dirk-steps", default="")
     p.add_argument("--rk4-steps", default="")
+    p.add_argument("--ref-method", default="imex")
     p.add_argument("--methods", default="imex", help="adaptive methods, comma-separated")
     p.add_argument("--repeats", type=int, default=1)
     p.add_argument("--ref-rtol", type=float, default=1e-9)
@@ -165,12 +167,12 @@ def main() -> int:
         """Runs the reference into out/name, or reuses the one there if it was
         made by this code version from this case file with the same settings."""
         ref = out / name
-        sets = scaled(a.ref_rtol) + extra
+        sets = [f"solver.method=\"{a.ref_method}\""] + scaled(a.ref_rtol) + extra
         key = {"git_commit": probe["provenance"]["git_commit"], "case_sha256": case_hash, "sets": sets}
         key_file = out / f"{name}.key.json"
         if (ref / "summary.json").is_file() and key_file.is_file() and json.loads(key_file.read_text()) == key:
             return ref
-        print(f"{name}: imex rtol {a.ref_rtol:g} ...", flush=True)
+        print(f"{name}: {a.ref_method} rtol {a.ref_rtol:g} ...", flush=True)
         r = run(a.exe, a.case, ref, sets, 1, 1e9)
         if r["status"] != "finished":
             print(f"error: the reference run failed: {r['message']}", file=sys.stderr)
@@ -196,6 +198,8 @@ def main() -> int:
             plan.append((m, f"rtol={r:g}", [f"solver.method=\"{m}\""] + scaled(r)))
     for h in [float(x) for x in a.imex_steps.split(",") if x]:
         plan.append(("imex-fixed", f"step={h:g}", ["solver.method=\"imex\"", f"solver.step={h:g}"]))
+    for h in [float(x) for x in a.dirk_steps.split(",") if x]:
+        plan.append(("dirk-fixed", f"step={h:g}", ["solver.method=\"dirk\"", f"solver.step={h:g}"]))
     for h in [float(x) for x in a.rk4_steps.split(",") if x]:
         plan.append(("rk4", f"step={h:g}", ["solver.method=\"rk4\"", f"solver.step={h:g}"]))
 

@@ -24,7 +24,8 @@ MEASURES = [("mu_error", "μ relative error"), ("trace_error", "trace relative L
             ("event_error", "largest event time error (s)"), ("state_error", "final-state relative L2 error")]
 LEVELS = [1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8]
 DEFAULT = ("imex", "rtol=1e-06")
-COLORS = {"imex": "C0", "imex-fixed": "C1", "rk4": "C2", "erk": "C3", "dirk": "C4", "bdf": "C5"}
+COLORS = {"imex": "C0", "imex-fixed": "C1", "rk4": "C2", "erk": "C3", "dirk": "C4", "bdf": "C5",
+          "dirk-fixed": "C6"}
 
 
 def number(x):
@@ -66,7 +67,7 @@ def best_times(rows):
         d = default[0]
         e, w = abs(float(d["mu_error"])), float(d["wall_seconds"])
         lines.append(f"\nDefault ({DEFAULT[0]} {DEFAULT[1]}): {w:.3g} s, μ error {e:.2g}.")
-        for m in sorted({r["method"] for r in rows if r["method"] in ("imex-fixed", "rk4")}):
+        for m in sorted({r["method"] for r in rows if r["method"] in ("imex-fixed", "dirk-fixed", "rk4")}):
             ok = [r for r in done if r["method"] == m and abs(float(r["mu_error"])) <= e]
             if ok:
                 best = min(ok, key=lambda r: float(r["wall_seconds"]))
