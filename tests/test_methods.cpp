@@ -388,19 +388,35 @@ TEST_CASE("final_state.csv holds every node's state at t_end, only when asked fo
   CHECK(s.friction_force(t, y) == Approx(f_row).epsilon(1e-8));
 }
 
-TEST_CASE("method = auto runs imex and says so; an explicit method is used as given",
+TEST_CASE("method = auto runs dirk where no contact can stick-slip, imex where some can or at a "
+          "fixed step, and says why; an explicit method is used as given",
           "[methods][auto]") {
-  Case c = short_smooth_run(1e-6);
+  Case c = short_smooth_run(1e-6);  // v* = 2e-3, 3e-3, 5e-3 against v = 1e-3
   TempDir dir("stickslip_test_auto");
   REQUIRE(c.solver.method == Method::automatic);  // the default
   auto summary = [&](const std::string& name) {
     run_case(c, {dir.path / name, false, true});
     return nlohmann::json::parse(std::ifstream(dir.path / name / "summary.json"));
   };
-  const auto automatic = summary("auto");
-  CHECK(automatic.at("case").at("solver").at("method") == "auto");
-  CHECK(automatic.at("solver").at("method") == "imex");
-  CHECK(automatic.at("solver").contains("chosen_by"));
+  const auto steady = summary("steady");
+  CHECK(steady.at("case").at("solver").at("method") == "auto");
+  CHECK(steady.at("solver").at("method") == "dirk");
+  CHECK(steady.at("solver").at("chosen_by").get<std::string>().find("no contact has v* below") !=
+        std::string::npos);
+
+  c.drive.velocity = 4e-3;  // two of the three contacts now stick-slip
+  const auto slipping = summary("slipping");
+  CHECK(slipping.at("solver").at("method") == "imex");
+  CHECK(slipping.at("solver").at("chosen_by").get<std::string>().find("2 of 3 contacts") !=
+        std::string::npos);
+
+  c.drive.velocity = 1e-3;
+  c.solver.step = 1e-8;
+  const auto fixed = summary("fixed");
+  CHECK(fixed.at("solver").at("method") == "imex");
+  CHECK(fixed.at("solver").at("fixed_step") == 1e-8);
+
+  c.solver.step = 0.0;
   c.solver.method = Method::erk;
   const auto erk = summary("erk");
   CHECK(erk.at("solver").at("method") == "erk");

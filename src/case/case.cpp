@@ -60,7 +60,7 @@ const char* to_string(LinearSolver s) {
   return "?";
 }
 
-Method chosen_method(Method requested) {
+Method validated_as(Method requested) {
   return requested == Method::automatic ? Method::imex : requested;
 }
 

@@ -714,7 +714,7 @@ void check_consistency(const Reader& r, const Case& c) {
   check_ids(c.output.event_ids, r.event_ids, "output.events");
 
   SolverParams s = c.solver;
-  s.method = chosen_method(s.method);  // "auto" allows what its choice allows
+  s.method = validated_as(s.method);  // "auto" allows what both its choices allow
   if (s.method == Method::rk4 && !(s.step > 0))
     r.fail_first({{"solver.step", "must be > 0 with method = \"rk4\" (a fixed-step method)"},
                   {"solver.method", "\"rk4\" is fixed-step: it needs [solver] step > 0"}});

@@ -97,6 +97,11 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
             "ARKStepSetNonlinearSolver");
       break;
     case StageSolve::exact_lattice:
+      // Steps grow to ~1e-4 s while the contacts creep; where a slip starts
+      // they must shrink by 1e5 within one step, more than the default 7
+      // error-test failures (each cuts h by at most 10×) allow.
+      check(ARKStepSetMaxErrTestFails(arkode_mem_, kMaxErrorTestFailures),
+            "ARKStepSetMaxErrTestFails");
       lattice_stages_ = std::make_unique<LatticeStageSolver>(system);
       stage_solver_ = make_exact_stage_solver(
           ctx_, StagePackage::arkstep,

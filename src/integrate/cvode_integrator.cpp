@@ -33,6 +33,7 @@ CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solve
   if (max_order_ >= 3) check(CVodeSetStabLimDet(cvode_mem_, SUNTRUE), "CVodeSetStabLimDet");
 
   if (setup_.stages == StageSolve::exact_lattice) {
+    check(CVodeSetMaxErrTestFails(cvode_mem_, kMaxErrorTestFailures), "CVodeSetMaxErrTestFails");
     lattice_stages_ = std::make_unique<LatticeStageSolver>(system);
     stage_solver_ = make_exact_stage_solver(
         ctx_, StagePackage::cvode,

@@ -68,11 +68,29 @@ MethodSetup method_setup(const SolverParams& solver) {
   throw std::logic_error("method_setup: resolve \"auto\" first");
 }
 
+MethodChoice choose_method(const System& system, const SolverParams& solver) {
+  if (solver.method != Method::automatic) return {solver.method, "given"};
+  if (solver.step > 0)
+    return {Method::imex, "method = \"auto\" with a fixed step: imex, the cheapest fixed-step "
+                          "method (docs/PERFORMANCE.md)"};
+  std::size_t weak = 0;  // contacts that stick-slip at the drive speed
+  for (const auto& c : system.contacts())
+    if (c.v_star < system.drive_velocity()) ++weak;
+  if (weak == 0)
+    return {Method::dirk, "method = \"auto\": dirk, since no contact has v* below the drive "
+                          "speed (steady sliding or creep, where its steps grow; "
+                          "docs/PERFORMANCE.md)"};
+  return {Method::imex, "method = \"auto\": imex, since " + std::to_string(weak) + " of " +
+                            std::to_string(system.contacts().size()) +
+                            " contacts have v* below the drive speed and stick-slip, where imex "
+                            "is as fast at equal accuracy (docs/PERFORMANCE.md)"};
+}
+
 std::unique_ptr<Integrator> make_integrator(const System& system, const SolverParams& solver,
                                             std::span<const double> y0, double t_stop,
                                             IntegratorOptions options, double t0) {
   SolverParams chosen = solver;
-  chosen.method = chosen_method(solver.method);
+  chosen.method = choose_method(system, solver).method;
   if (method_setup(chosen).package == Package::cvode)
     return std::make_unique<CvodeIntegrator>(system, chosen, y0, t0, t_stop, std::move(options));
   return std::make_unique<ArkStepIntegrator>(system, chosen, y0, t0, t_stop, std::move(options));

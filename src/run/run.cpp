@@ -384,9 +384,7 @@ RunResult run_case(const Case& c, const RunOptions& options) {
 
   nlohmann::json solver_description = integrator->description();
   if (c.solver.method == Method::automatic)
-    solver_description["chosen_by"] =
-        "method = \"auto\": imex, the fastest at every error level on every benchmark case "
-        "(docs/PERFORMANCE.md)";
+    solver_description["chosen_by"] = choose_method(system, c.solver).reason;
   nlohmann::json summary = {
       {"mu", result.mu},
       {"theta", result.theta},

@@ -76,7 +76,7 @@ struct RunParams {
 };
 
 struct SolverParams {
-  Method method = Method::automatic;  // "auto": chosen_method() picks
+  Method method = Method::automatic;  // "auto": choose_method() picks
   LinearSolver linear_solver = LinearSolver::automatic;  // dirk and bdf only
   int order = 0;      // 0: the method's default (bdf: 2, see MODEL.md §12)
   double step = 0.0;  // > 0: fixed step [s], adaptivity off (ARKStep methods and rk4)
@@ -128,14 +128,9 @@ const char* to_string(InitialState);
 const char* to_string(Method);
 const char* to_string(LinearSolver);
 
-// The method a run uses for `requested`: itself, or for "auto" the one the
-// work-precision benchmarks (docs/PERFORMANCE.md) show fastest at every error
-// level on every benchmark case (two contacts, global stick-slip at coverage
-// 0.5, steady sliding; ε down to 3e-3): imex, adaptive or with a fixed step.
-// The others lose on every case for reasons no case parameter changes: erk's
-// steps are held to ~1e-11 s by the contacts' stiffness near rest, dirk and
-// bdf stall in steps of 1e-14–1e-11 s and in KLU factorizations of the whole
-// lattice (9.8 s each on 15×15×10), rk4 needs h ≲ 1e-13 s.
-Method chosen_method(Method requested);
+// The method whose rules (fixed step, orders) a case is validated against:
+// itself, or for "auto" imex, whose rules are the narrower of the two methods
+// "auto" chooses between (imex and dirk; see choose_method in integrator.hpp).
+Method validated_as(Method requested);
 
 }  // namespace stickslip

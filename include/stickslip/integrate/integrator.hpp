@@ -6,6 +6,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "stickslip/case/case.hpp"
@@ -66,6 +67,10 @@ struct MethodSetup {
   long poll_steps = 500;
   const char* integrator = "";  // how summary.json describes it
 };
+// Error-test failures allowed in one step of an exactly solved implicit method
+// (SUNDIALS' default: 7).
+inline constexpr int kMaxErrorTestFailures = 20;
+
 // For a resolved method (not "auto") and its linear_solver.
 MethodSetup method_setup(const SolverParams& solver);
 
@@ -91,6 +96,18 @@ class Integrator {
 // displacement tolerance makes of them (k1 a · atol_u for energies,
 // k1 · atol_u · a / c_l for the impulse), so they are controlled relatively.
 std::vector<double> absolute_tolerances(const System& system, const SolverParams& solver);
+
+// The method "auto" runs, and why (summary.json says both). The rule follows
+// the work-precision benchmarks (docs/PERFORMANCE.md): where no contact can
+// stick-slip at the drive speed (every v* ≥ v: steady sliding, creep) the
+// implicit dirk wins by 40–100×, its steps growing to ~1e-4 s; where some
+// can, slips are frequent and imex, whose steps the lattice holds below
+// ~2e-7 s, is as fast or faster at equal μ error. A fixed step keeps imex.
+struct MethodChoice {
+  Method method;
+  std::string reason;
+};
+MethodChoice choose_method(const System& system, const SolverParams& solver);
 
 // Starts from y0 at t0 (0 for a run; later for a restart or a test).
 std::unique_ptr<Integrator> make_integrator(const System& system, const SolverParams& solver,
