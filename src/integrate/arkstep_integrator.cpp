@@ -5,6 +5,7 @@
 #include <sunlinsol/sunlinsol_klu.h>
 
 #include <algorithm>
+#include <functional>
 #include <cmath>
 #include <limits>
 #include <utility>
@@ -105,11 +106,7 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
       lattice_stages_ = std::make_unique<LatticeStageSolver>(system);
       stage_solver_ = make_exact_stage_solver(
           ctx_, StagePackage::arkstep,
-          [solver = lattice_stages_.get()](double t, double gamma,
-                                           std::span<const double> predictor,
-                                           std::span<const double> weights, std::span<double> z) {
-            return solver->solve(t, gamma, predictor, weights, z);
-          },
+          std::bind_front(&LatticeStageSolver::solve, lattice_stages_.get()),
           stage_stats_);
       check(ARKStepSetNonlinearSolver(arkode_mem_, stage_solver_.get()),
             "ARKStepSetNonlinearSolver");

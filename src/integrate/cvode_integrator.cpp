@@ -4,6 +4,7 @@
 #include <sunlinsol/sunlinsol_klu.h>
 
 #include <algorithm>
+#include <functional>
 #include <limits>
 #include <utility>
 
@@ -37,10 +38,7 @@ CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solve
     lattice_stages_ = std::make_unique<LatticeStageSolver>(system);
     stage_solver_ = make_exact_stage_solver(
         ctx_, StagePackage::cvode,
-        [solver = lattice_stages_.get()](double t, double gamma, std::span<const double> predictor,
-                                         std::span<const double> weights, std::span<double> z) {
-          return solver->solve(t, gamma, predictor, weights, z);
-        },
+        std::bind_front(&LatticeStageSolver::solve, lattice_stages_.get()),
         stage_stats_);
     check(CVodeSetNonlinearSolver(cvode_mem_, stage_solver_.get()), "CVodeSetNonlinearSolver");
   } else {
