@@ -40,6 +40,7 @@ LatticeStageSolver::LatticeStageSolver(const System& system)
   jacobian_.resize(n, n);
   for (auto* v : {&free_speed_, &beta_, &sigma_, &residual_, &trial_}) v->resize(n);
   stages_.resize(contacts_);
+  predicted_speed_.resize(contacts_);
 }
 
 void LatticeStageSolver::set_gamma(double gamma) {
@@ -96,15 +97,14 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
   constexpr double kTolerance = 1e-6;   // of the integrator's error weights
   constexpr double kStagnated = 1e-3;   // accepted if no further progress is possible
   const double gamma_self = gamma_ * self_green_;
-  std::vector<double> predicted_speed(contacts_);
   for (std::size_t i = 0; i < contacts_; ++i)
-    predicted_speed[i] = std::hypot(predictor[contact_w_[i]], predictor[contact_w_[i] + 1]);
+    predicted_speed_[i] = std::hypot(predictor[contact_w_[i]], predictor[contact_w_[i] + 1]);
 
   // F(β) and its weighted max norm; Σ(β) into sigma_, ∂Σ/∂β into stages_.
   auto evaluate = [&](const Eigen::VectorXd& beta) {
     for (std::size_t i = 0; i < contacts_; ++i) {
       stages_[i] = system_.contact_stage(i, gamma_self, {beta(2 * i), beta(2 * i + 1)},
-                                         predicted_speed[i], true);
+                                         predicted_speed_[i], true);
       sigma_(2 * i) = stages_[i].s[0];
       sigma_(2 * i + 1) = stages_[i].s[1];
     }

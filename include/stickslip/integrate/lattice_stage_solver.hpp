@@ -55,6 +55,7 @@ class LatticeStageSolver {
   Eigen::VectorXd free_speed_, beta_, sigma_, residual_, trial_;
   Eigen::MatrixXd jacobian_;
   std::vector<ContactStage> stages_;
+  std::vector<double> predicted_speed_;
 };
 
 }  // namespace stickslip
