@@ -25,14 +25,19 @@ def read_summary(sweep_dir: Path):
 
 
 def curves(rows, label_key):
-    """{label value: [(theta, mean, sd, count)]}, sorted by theta; points without a result skipped."""
+    """{label value: [(theta, mean, sd, count, whole_cycles)]}, sorted by theta; points without
+    a result skipped. μ over whole cycles of F_f where the table has it (summary.json's
+    mu_whole_cycles: no bias from a fraction of a block-scale cycle), else over the window."""
     out = {}
     for r in rows:
         if not r["mu_mean"]:
             continue
         key = r.get(label_key, "") if label_key else ""
-        sd = float(r["mu_std"]) if r["mu_std"] else 0.0
-        out.setdefault(key, []).append((float(r["theta_mean"]), float(r["mu_mean"]), sd, int(r["count"])))
+        cycles = bool(r.get("mu_whole_cycles_mean"))
+        prefix = "mu_whole_cycles" if cycles else "mu"
+        sd = float(r[prefix + "_std"]) if r[prefix + "_std"] else 0.0
+        out.setdefault(key, []).append(
+            (float(r["theta_mean"]), float(r[prefix + "_mean"]), sd, int(r["count"]), cycles))
     for v in out.values():
         v.sort()
     return out
@@ -53,10 +58,13 @@ def plot(sweep_dirs, label_key: str, label_name: str, stem: str, title: str) -> 
         sd = [p[2] for p in pts]
         label = f"{label_name} = {value}" if value else None
         ax.errorbar(th, mu, yerr=sd, marker="o", ms=4, capsize=3, lw=1, color=f"C{i}", label=label)
-        for t, m, s, n in pts:
-            print(f"{label_name}={value or '-'} theta={t:.4g} mu_mean={m:.6g} mu_std={s:.3g} n={n}")
+        for t, m, s, n, cycles in pts:
+            what = "mu_whole_cycles" if cycles else "mu"
+            print(f"{label_name}={value or '-'} theta={t:.4g} {what}_mean={m:.6g} {what}_std={s:.3g} n={n}")
+    whole = all(p[4] for pts in data.values() for p in pts)
     ax.set_xlabel("coverage θ")
-    ax.set_ylabel("friction coefficient μ (mean ± sd over seeds)")
+    ax.set_ylabel("μ over whole cycles of $F_f$ (mean ± sd over seeds)" if whole
+                  else "friction coefficient μ (mean ± sd over seeds)")
     ax.set_title(title, fontsize=10)
     if any(data):
         ax.legend(fontsize=8)

@@ -98,8 +98,14 @@ TEST_CASE("cases/steady.toml reaches the exact steady-sliding mu", "[steady]") {
   options.overwrite = true;
   options.quiet = true;
   const RunResult r = run_case(c, options);
+  const auto summary = nlohmann::json::parse(std::ifstream(options.out_dir / "summary.json"));
   std::filesystem::remove_all(options.out_dir);
   INFO("mu = " << r.mu << ", exact " << exact);
   CHECK(std::abs(r.mu / exact - 1) < 5e-3);
+  // Over whole cycles of F_f, from friction.csv's samples: the same steady value.
+  const auto& cycles = summary.at("mu_whole_cycles");
+  CHECK(std::abs(cycles.at("mu").get<double>() / exact - 1) < 5e-3);
+  CHECK(cycles.at("from").get<double>() >= c.run.average_from);
+  CHECK(cycles.at("to").get<double>() <= c.run.t_end);
   CHECK(std::abs(r.energy_residual) < 1e-5);
 }

@@ -9,12 +9,14 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <fstream>
 #include <functional>
 #include <limits>
 #include <memory>
 #include <optional>
 
 #include "stickslip/analysis/compare.hpp"
+#include "stickslip/analysis/cycles.hpp"
 #include "stickslip/analysis/events.hpp"
 #include "stickslip/integrate/sundials.hpp"
 #include "stickslip/model/contacts.hpp"
@@ -94,6 +96,23 @@ double travel_time(const System& s, const Contact& a, const Contact& b) {
   };
   const double dx = wrap(a.ix - b.ix, s.nx()), dy = wrap(a.iy - b.iy, s.ny());
   return std::hypot(dx, dy) * s.spacing() / std::sqrt(s.g1());
+}
+
+// friction.csv's t and F_f columns from t_from on (the run's own file, whole
+// across restarts: the cut-back leaves no gap or duplicate).
+void read_friction_series(const std::filesystem::path& file, double t_from,
+                          std::vector<double>& t, std::vector<double>& f) {
+  std::ifstream in(file);
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    char* end = nullptr;
+    const double time = std::strtod(line.c_str(), &end);
+    if (*end != ',') throw OutputError(file.string() + ": malformed row: " + line);
+    if (time < t_from) continue;
+    t.push_back(time);
+    f.push_back(std::strtod(end + 1, nullptr));
+  }
 }
 
 }  // namespace
@@ -354,6 +373,13 @@ RunResult run_case(const Case& c, const RunOptions& options) {
   result.mu = (y[impulse] - impulse_at_avg) / ((t_end - t_avg) * normal_force);
   result.energy_residual = system.energy_residual(t_end, y, y0);
   result.stats = total_stats();
+  // μ over whole cycles of F_f as well (analysis/cycles.hpp): from the output
+  // samples, so it costs nothing during the run.
+  friction.flush();
+  std::vector<double> series_t, series_f;
+  read_friction_series(dir / "friction.csv", t_avg, series_t, series_f);
+  std::optional<CycleMean> cycles;
+  if (series_t.size() >= 2) cycles = whole_cycle_mean(series_t, series_f, t_avg);
   // A result whose energy audit is off by more than the tolerances can
   // explain is not reported (docs/STABILITY.md: |R| ≈ 0.01–10 × rtol in sound
   // runs; fixed steps are held to the default's bound).
@@ -387,6 +413,12 @@ RunResult run_case(const Case& c, const RunOptions& options) {
     solver_description["chosen_by"] = choose_method(system, c.solver).reason;
   nlohmann::json summary = {
       {"mu", result.mu},
+      {"mu_whole_cycles",
+       cycles ? nlohmann::json{{"mu", cycles->mean / normal_force},
+                               {"from", cycles->from},
+                               {"to", cycles->to},
+                               {"crossings", cycles->crossings}}
+              : nlohmann::json()},
       {"theta", result.theta},
       {"F_N", normal_force},
       {"contacts", result.contacts},

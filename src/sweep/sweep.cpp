@@ -18,6 +18,7 @@
 #include <ostream>
 #include <sstream>
 
+#include "stickslip/case/reader.hpp"
 #include "stickslip/output/checkpoint.hpp"
 #include "stickslip/output/writers.hpp"
 #include "stickslip/version.hpp"
@@ -67,8 +68,17 @@ std::string number(const nlohmann::json& j) {
   return buf;
 }
 
+// μ over whole cycles of F_f (analysis/cycles.hpp); empty for summaries
+// written before it existed.
+std::string whole_cycle_mu(const nlohmann::json& summary) {
+  const auto it = summary.find("mu_whole_cycles");
+  return it != summary.end() && it->is_object() ? number((*it)["mu"]) : std::string();
+}
+
 void write_atomically(const fs::path& file, const std::string& text) {
-  const fs::path tmp = file.string() + ".tmp";
+  // Shards of a job array may write the tables at the same moment: each its own
+  // temporary, the last rename wins, and every version is whole.
+  const fs::path tmp = file.string() + "." + std::to_string(getpid()) + ".tmp";
   {
     std::ofstream out(tmp);
     out << text;
@@ -106,6 +116,24 @@ pid_t spawn_point(const Sweep& sweep, const SweepPoint& p, const fs::path& dir,
 }
 
 }  // namespace
+
+Shard parse_shard(const std::string& text) {
+  const auto slash = text.find('/');
+  auto whole = [](const std::string& s, int& value) {
+    if (s.empty() || s.size() > 9 || s.find_first_not_of("0123456789") != std::string::npos)
+      return false;
+    value = std::stoi(s);
+    return true;
+  };
+  Shard shard;
+  if (slash == std::string::npos || !whole(text.substr(0, slash), shard.index) ||
+      !whole(text.substr(slash + 1), shard.count) || shard.count < 1 ||
+      shard.index >= shard.count)
+    throw CaseError("--shard " + text +
+                    ": expected i/n with whole numbers 0 <= i < n (the points whose index is i "
+                    "modulo n; for a Slurm array --array=0-(n-1))");
+  return shard;
+}
 
 const char* to_string(PointState s) {
   switch (s) {
@@ -152,7 +180,7 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
   std::ostringstream table;
   table << "point";
   for (const auto& a : sweep.axes) table << ',' << a.key;
-  table << ",status,mu,theta,contacts,F_N,energy_residual,slips,mean_recurrence,"
+  table << ",status,mu,mu_whole_cycles,theta,contacts,F_N,energy_residual,slips,mean_recurrence,"
            "slipping_fraction";
   const char* const sync_columns[] = {"slip_rate_ratio", "lag_mean", "lag_min", "lag_max",
                                       "coincident_fraction", "xcorr_peak", "xcorr_lag"};
@@ -168,7 +196,7 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
     const fs::path dir = out_dir / p.name;
     if (!summaries[i]) {
       const PointState state = states[i];
-      table << ',' << to_string(state) << std::string(any_sync ? 21 : 14, ',')
+      table << ',' << to_string(state) << std::string(any_sync ? 22 : 15, ',')
             << csv_field(state == PointState::failed ? last_line(dir / "run.log") : "") << '\n';
       continue;
     }
@@ -186,7 +214,8 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
         if (c["slipping_fraction"].is_number())
           fraction += c["slipping_fraction"].get<double>(), ++n_frac;
       }
-    table << ",finished," << number(s["mu"]) << ',' << number(s["theta"]) << ','
+    table << ",finished," << number(s["mu"]) << ',' << whole_cycle_mu(s) << ','
+          << number(s["theta"]) << ','
           << number(s["contacts"]) << ',' << number(s["F_N"]) << ','
           << number(s["energy_residual"]) << ',' << (s.contains("events") ? std::to_string(slips) : "")
           << ',' << (n_rec ? number(recurrence / n_rec) : "") << ','
@@ -205,8 +234,10 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
   std::size_t avg_axis = sweep.axes.size();
   for (std::size_t i = 0; i < sweep.axes.size(); ++i)
     if (sweep.axes[i].key == sweep.average_over) avg_axis = i;
-  std::map<std::vector<std::size_t>, std::vector<double>> groups;  // axis value indices -> μ
-  std::map<std::vector<std::size_t>, std::vector<double>> thetas;
+  struct Group {
+    std::vector<double> mu, mu_cycles, theta;  // of the finished points
+  };
+  std::map<std::vector<std::size_t>, Group> groups;  // axis value indices -> points
   std::vector<std::vector<std::size_t>> order;
   for (std::size_t i = 0; i < points.size(); ++i) {
     std::vector<std::size_t> key;
@@ -217,31 +248,42 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
           std::find(labels.begin(), labels.end(), points[i].labels[a]) - labels.begin()));
     }
     if (!groups.count(key)) order.push_back(key);
-    auto& mus = groups[key];
+    auto& g = groups[key];
     if (summaries[i] && (*summaries[i])["mu"].is_number()) {
-      mus.push_back((*summaries[i])["mu"].get<double>());
-      thetas[key].push_back((*summaries[i])["theta"].get<double>());
+      g.mu.push_back((*summaries[i])["mu"].get<double>());
+      g.theta.push_back((*summaries[i])["theta"].get<double>());
+      const std::string cycles = whole_cycle_mu(*summaries[i]);
+      if (!cycles.empty()) g.mu_cycles.push_back(std::stod(cycles));
     }
   }
+  auto num = [](double x) { return std::isfinite(x) ? number(x) : std::string(); };
+  // mean, sample standard deviation and standard error, empty where undefined
+  auto statistics = [&](const std::vector<double>& xs) {
+    const auto n = static_cast<double>(xs.size());
+    double mean = 0, var = 0;
+    for (double x : xs) mean += x / n;
+    for (double x : xs) var += (x - mean) * (x - mean);
+    const double sd = xs.size() > 1 ? std::sqrt(var / (n - 1)) : NAN;
+    return (xs.empty() ? "" : num(mean)) + ',' + num(sd) + ',' + num(sd / std::sqrt(n));
+  };
   std::ostringstream summary;
   bool first = true;
   for (std::size_t a = 0; a < sweep.axes.size(); ++a)
     if (a != avg_axis) summary << (first ? "" : ",") << sweep.axes[a].key, first = false;
-  summary << (first ? "" : ",") << "theta_mean,mu_mean,mu_std,mu_sem,count\n";
+  summary << (first ? "" : ",")
+          << "theta_mean,mu_mean,mu_std,mu_sem,count,"
+             "mu_whole_cycles_mean,mu_whole_cycles_std,mu_whole_cycles_sem\n";
   for (const auto& key : order) {
     std::size_t k = 0;
     for (std::size_t a = 0; a < sweep.axes.size(); ++a)
       if (a != avg_axis) summary << csv_field(sweep.axes[a].labels[key[k++]]) << ',';
-    const auto& mus = groups[key];
-    const auto n = static_cast<double>(mus.size());
-    double mean = 0, var = 0, theta = 0;
-    for (double m : mus) mean += m / n;
-    for (double m : mus) var += (m - mean) * (m - mean);
-    for (double t : thetas[key]) theta += t / n;
-    const double sd = mus.size() > 1 ? std::sqrt(var / (n - 1)) : NAN;
-    auto num = [](double x) { return std::isfinite(x) ? number(x) : std::string(); };
-    summary << (mus.empty() ? "" : num(theta)) << ',' << (mus.empty() ? "" : num(mean)) << ','
-            << num(sd) << ',' << num(sd / std::sqrt(n)) << ',' << mus.size() << '\n';
+    const Group& g = groups[key];
+    double theta = 0;
+    for (double t : g.theta) theta += t / static_cast<double>(g.theta.size());
+    summary << (g.theta.empty() ? "" : num(theta)) << ',' << statistics(g.mu) << ','
+            << g.mu.size() << ','
+            // Only when every finished point has it: never a mean over fewer points than count.
+            << (g.mu_cycles.size() == g.mu.size() ? statistics(g.mu_cycles) : ",,") << '\n';
   }
   write_atomically(out_dir / "sweep_summary.csv", summary.str());
   return finished;

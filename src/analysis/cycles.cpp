@@ -1,0 +1,53 @@
+#include "stickslip/analysis/cycles.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+#include <vector>
+
+namespace stickslip {
+
+namespace {
+
+// ∫ f dt over [a, b] (a ≤ b within the samples), f linear between samples.
+double integral(std::span<const double> t, std::span<const double> f, double a, double b) {
+  auto at = [&](std::size_t i, double s) {  // f at s in [t_i, t_i+1]
+    return f[i] + (f[i + 1] - f[i]) * (s - t[i]) / (t[i + 1] - t[i]);
+  };
+  double sum = 0.0;
+  for (std::size_t i = 0; i + 1 < t.size(); ++i) {
+    const double lo = std::max(a, t[i]), hi = std::min(b, t[i + 1]);
+    if (hi > lo) sum += 0.5 * (at(i, lo) + at(i, hi)) * (hi - lo);
+  }
+  return sum;
+}
+
+}  // namespace
+
+CycleMean whole_cycle_mean(std::span<const double> t_all, std::span<const double> f_all,
+                           double t_from) {
+  if (t_all.size() != f_all.size())
+    throw std::invalid_argument("whole_cycle_mean: times and values differ in number");
+  std::size_t first = 0;
+  while (first < t_all.size() && t_all[first] < t_from) ++first;
+  const auto t = t_all.subspan(first), f = f_all.subspan(first);
+  if (t.size() < 2) throw std::invalid_argument("whole_cycle_mean: fewer than two samples");
+
+  CycleMean r;
+  r.from = t.front();
+  r.to = t.back();
+  const double window_mean = integral(t, f, r.from, r.to) / (r.to - r.from);
+  std::vector<double> down;  // times where f falls through the window mean
+  for (std::size_t i = 0; i + 1 < t.size(); ++i)
+    if (f[i] >= window_mean && f[i + 1] < window_mean)
+      down.push_back(t[i] + (f[i] - window_mean) / (f[i] - f[i + 1]) * (t[i + 1] - t[i]));
+  r.crossings = static_cast<long>(down.size());
+  if (down.size() >= 2 && down.back() > down.front()) {
+    r.from = down.front();
+    r.to = down.back();
+  }
+  r.mean = r.from == t.front() && r.to == t.back() ? window_mean
+                                                   : integral(t, f, r.from, r.to) / (r.to - r.from);
+  return r;
+}
+
+}  // namespace stickslip

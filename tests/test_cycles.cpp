@@ -1,0 +1,101 @@
+// The whole-cycle mean of a friction signal, on signals whose mean over whole
+// cycles is known exactly: a sawtooth (the block-scale stick-slip's shape), a
+// sine, a constant.
+#include <catch2/catch.hpp>
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+#include "stickslip/analysis/cycles.hpp"
+
+using namespace stickslip;
+
+namespace {
+
+struct Signal {
+  std::vector<double> t, f;
+};
+
+// f rises linearly from lo to hi over each period and drops back within one
+// sample, sampled every dt over [0, t_end]: its mean over whole cycles is
+// (lo + hi) / 2.
+Signal sawtooth(double period, double lo, double hi, double dt, double t_end, double phase = 0) {
+  Signal s;
+  for (long k = 0; k * dt <= t_end + 1e-12; ++k) {
+    const double t = k * dt, x = std::fmod(t + phase, period) / period;
+    s.t.push_back(t);
+    s.f.push_back(lo + (hi - lo) * x);
+  }
+  return s;
+}
+
+double plain_mean(const Signal& s, double t_from) {
+  double sum = 0, span = 0;
+  for (std::size_t i = 0; i + 1 < s.t.size(); ++i)
+    if (s.t[i] >= t_from) {
+      sum += 0.5 * (s.f[i] + s.f[i + 1]) * (s.t[i + 1] - s.t[i]);
+      span += s.t[i + 1] - s.t[i];
+    }
+  return sum / span;
+}
+
+}  // namespace
+
+TEST_CASE("sawtooth: whole cycles give (lo + hi) / 2 where the window is biased", "[analysis][cycles]") {
+  // 4.9 ms period, sampled every 10 µs, window [10, 30] ms: 4.08 cycles.
+  const double T = 4.9e-3, lo = 2.0, hi = 6.0, dt = 1e-5;
+  double worst_window_bias = 0;
+  for (int k = 0; k < 20; ++k) {
+    const double phase = k * T / 20;
+    const Signal s = sawtooth(T, lo, hi, dt, 30e-3, phase);
+    const CycleMean r = whole_cycle_mean(s.t, s.f, 10e-3);
+    INFO("phase " << phase);
+    // Sampled, the drop takes one interval dt: the mean of the sampled
+    // sawtooth is off by (hi − lo)/2 · dt/T, whatever the window.
+    CHECK(std::abs(r.mean - 4.0) <= (hi - lo) / 2 * dt / T * 1.01);
+    // Whole cycles between the crossings, inside the window.
+    CHECK(r.from >= 10e-3);
+    CHECK(r.to <= 30e-3);
+    const double cycles = (r.to - r.from) / T;
+    CHECK(std::abs(cycles - std::round(cycles)) < dt / T);
+    CHECK(r.crossings == std::lround(cycles) + 1);
+    worst_window_bias = std::max(worst_window_bias, std::abs(plain_mean(s, 10e-3) - 4.0));
+  }
+  // The test can fail: the plain window mean is off by up to
+  // (hi − lo)/2 · 0.08 cycle / 4.08 cycles ≈ 0.039 at some phase.
+  CHECK(worst_window_bias > 0.03);
+}
+
+TEST_CASE("sine: the mean over whole periods is its offset", "[analysis][cycles]") {
+  Signal s;
+  const double T = 3e-3;
+  for (long k = 0; k <= 20000; ++k) {
+    const double t = k * 1e-6;
+    s.t.push_back(t);
+    s.f.push_back(1.5 + 0.7 * std::sin(2 * M_PI * t / T + 0.4));
+  }
+  const CycleMean r = whole_cycle_mean(s.t, s.f, 1e-3);
+  CHECK(r.mean == Approx(1.5).epsilon(1e-6));
+  CHECK(r.crossings == 7);  // 1.31, 4.31, … 19.31 ms
+  CHECK(std::abs(plain_mean(s, 1e-3) - 1.5) > 1e-3);
+}
+
+TEST_CASE("no cycle: a constant or a ramp gives the window mean", "[analysis][cycles]") {
+  const std::vector<double> t = {0, 1, 2, 3, 4}, flat = {2, 2, 2, 2, 2}, ramp = {0, 1, 2, 3, 4};
+  const CycleMean c = whole_cycle_mean(t, flat, 1.0);
+  CHECK(c.mean == 2.0);
+  CHECK(c.crossings == 0);
+  CHECK(c.from == 1.0);
+  CHECK(c.to == 4.0);
+  const CycleMean r = whole_cycle_mean(t, ramp, 0.5);  // samples from t = 1 count
+  CHECK(r.mean == 2.5);
+  CHECK(r.crossings == 0);
+}
+
+TEST_CASE("whole_cycle_mean refuses too few samples and mismatched sizes", "[analysis][cycles]") {
+  const std::vector<double> t = {0, 1, 2}, f = {1, 2};
+  CHECK_THROWS_AS(whole_cycle_mean(t, f, 0.0), std::invalid_argument);
+  const std::vector<double> g = {1, 2, 3};
+  CHECK_THROWS_AS(whole_cycle_mean(t, g, 1.5), std::invalid_argument);
+}
