@@ -346,3 +346,68 @@ interval = 1e-5
       CHECK(test::lines(slurp(p.path() / "friction.csv")) ==
             test::lines(slurp(box.work / "whole" / p.path().filename() / "friction.csv")));
 }
+
+TEST_CASE("a sweep split into job-array shards makes the same tables as one run",
+          "[sweep][shard]") {
+  Sandbox box;
+  box.write("base.toml", kBase);
+  box.write("tiny.toml", kTiny);
+  REQUIRE(box.run({"sweep", "tiny.toml", "--jobs", "2", "--out", "whole"}).code == 0);
+
+  // The cluster script, as Slurm starts it for --array=1-3 (task ids 1, 2, 3):
+  // shard 0 runs points 0 and 3, shards 1 and 2 one point each.
+  const std::string script = std::string(STICKSLIP_SOURCE_DIR) + "/scripts/cluster/sweep-array.sbatch";
+  const std::vector<std::string> mine = {"coverage=0.2_seed=1", "coverage=0.2_seed=2",
+                                         "coverage=0.5_seed=1"};
+  for (int task = 1; task <= 3; ++task) {
+    const std::string log = "shard" + std::to_string(task) + ".txt";
+    const std::string cmd = "cd " + test::quote(box.work.string()) +
+                            " && SLURM_ARRAY_TASK_ID=" + std::to_string(task) +
+                            " SLURM_ARRAY_TASK_MIN=1 SLURM_ARRAY_TASK_MAX=3"
+                            " SLURM_ARRAY_TASK_COUNT=3 STICKSLIP=" + test::quote(STICKSLIP_EXE) +
+                            " " + test::quote(script) + " tiny.toml --out shards >" + log + " 2>&1";
+    const int status = std::system(cmd.c_str());
+    const std::string out = slurp(box.work / log);
+    INFO(out);
+    REQUIRE(WIFEXITED(status));
+    CHECK(WEXITSTATUS(status) == 0);
+    CHECK_THAT(out, Catch::Contains("shard " + std::to_string(task - 1) + "/3"));
+    CHECK_THAT(out, Catch::Contains(mine[task - 1] + ": mu ="));
+    // Only this shard's points ran: the next shard's point is not there yet.
+    if (task < 3) CHECK_FALSE(fs::exists(box.work / "shards" / mine[task]));
+  }
+  CHECK_THAT(slurp(box.work / "shard1.txt"), Catch::Contains("coverage=0.5_seed=2: mu ="));
+  CHECK_THAT(slurp(box.work / "shard3.txt"), Catch::Contains("4 of 4 points of the sweep finished"));
+
+  auto a = csv(box.work / "whole" / "sweep.csv"), b = csv(box.work / "shards" / "sweep.csv");
+  const auto wall = column(a, "wall_seconds");
+  for (auto* rows : {&a, &b})
+    for (auto& row : *rows) row.at(wall).clear();
+  CHECK(a == b);
+  CHECK(slurp(box.work / "whole" / "sweep_summary.csv") ==
+        slurp(box.work / "shards" / "sweep_summary.csv"));
+
+  // A shard run again has nothing left to do.
+  const auto again = box.run({"sweep", "tiny.toml", "--out", "shards", "--shard", "0/3"});
+  CHECK(again.code == 0);
+  CHECK_THAT(again.out, Catch::Contains("0 of its points ran"));
+
+  // Bad shards, and arrays the script cannot split evenly, are refused before anything runs.
+  for (const char* bad : {"3/3", "1", "-1/2", "a/2", "1/0", "0/2/3"}) {
+    const auto r = box.run({"sweep", "tiny.toml", "--out", "bad", "--shard", bad});
+    INFO(bad);
+    CHECK(r.code == 2);
+    CHECK_THAT(r.err, Catch::Contains(std::string("--shard ") + bad) && Catch::Contains("0 <= i < n"));
+  }
+  CHECK_FALSE(fs::exists(box.work / "bad" / "coverage=0.2_seed=1"));
+  const std::string stepped = "cd " + test::quote(box.work.string()) +
+                              " && SLURM_ARRAY_TASK_ID=2 SLURM_ARRAY_TASK_MIN=0 "
+                              "SLURM_ARRAY_TASK_MAX=4 SLURM_ARRAY_TASK_STEP=2 "
+                              "SLURM_ARRAY_TASK_COUNT=3 STICKSLIP=" + test::quote(STICKSLIP_EXE) +
+                              " " + test::quote(script) + " tiny.toml --out stepped >stepped.txt 2>&1";
+  const int status = std::system(stepped.c_str());
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 2);
+  CHECK_THAT(slurp(box.work / "stepped.txt"), Catch::Contains("one range FIRST-LAST"));
+  CHECK_FALSE(fs::exists(box.work / "stepped"));
+}

@@ -121,10 +121,46 @@ class MpiWorld {
   int rank_ = 0, size_ = 1;
 };
 
+// One task of a scheduler's job array: its share of the points, then the
+// tables from every shard's points finished so far (the last shard to end
+// leaves them complete; `--report` writes them again at any time). Exit 0 when
+// all of this shard's points finished.
+int sweep_shard(const stickslip::Sweep& sweep, const std::vector<stickslip::SweepPoint>& points,
+                stickslip::SweepOptions options, stickslip::Shard shard, int jobs) {
+  using namespace stickslip;
+  if (std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE") || std::getenv("PMIX_RANK"))
+    throw CaseError("--shard splits the points between separate jobs; under mpirun the ranks "
+                    "already share them: use one or the other");
+  options.rank = shard.index;
+  options.ranks = shard.count;
+  options.jobs = jobs > 0 ? jobs : 1;
+  std::size_t mine = 0;
+  for (const auto& p : points) mine += p.index % shard.count == std::size_t(shard.index);
+  std::printf("sweep %s, shard %d/%d: %zu of its %zu points, %d job%s, outputs in %s\n",
+              sweep.source.c_str(), shard.index, shard.count, mine, points.size(), options.jobs,
+              options.jobs == 1 ? "" : "s", options.out_dir.c_str());
+  std::fflush(stdout);
+  const SweepOutcome outcome = run_sweep(sweep, points, options, std::cout);
+  const std::size_t finished = write_sweep_tables(sweep, points, options.out_dir);
+  if (outcome.interrupted_by) {
+    std::fprintf(stderr, "shard interrupted: run the same command again to continue\n");
+    return 128 + outcome.interrupted_by;
+  }
+  std::printf("shard %d/%d: %zu of its points ran, %zu failed; %zu of %zu points of the sweep "
+              "finished; tables: %s, %s\n",
+              shard.index, shard.count, outcome.ran, outcome.failed, finished, points.size(),
+              (options.out_dir / "sweep.csv").c_str(),
+              (options.out_dir / "sweep_summary.csv").c_str());
+  return outcome.failed > 0 ? 1 : 0;
+}
+
 int sweep_command(const std::string& sweep_file, const std::string& out, int jobs,
-                  const std::vector<std::string>& sets, bool overwrite, bool report_only) {
+                  const std::vector<std::string>& sets, bool overwrite, bool report_only,
+                  const std::string& shard_text) {
   using namespace stickslip;
   return with_exit_codes([&] {
+    const bool sharded = !shard_text.empty();
+    const Shard shard = sharded ? parse_shard(shard_text) : Shard{};
     const Sweep sweep = read_sweep(sweep_file, sets);
     const auto points = sweep_points(sweep);
     SweepOptions options;
@@ -147,6 +183,7 @@ int sweep_command(const std::string& sweep_file, const std::string& out, int job
                   (options.out_dir / "sweep_summary.csv").c_str());
       return finished == points.size() ? 0 : 1;
     }
+    if (sharded) return sweep_shard(sweep, points, options, shard, jobs);
     MpiWorld world;
     options.rank = world.rank();
     options.ranks = world.size();
@@ -211,6 +248,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> sweep_sets;
   int jobs = 0;
   bool sweep_overwrite = false, sweep_report = false;
+  std::string shard;
   CLI::App* sweep = app.add_subcommand(
       "sweep", "run every combination of a sweep file's values; skips points already finished");
   sweep->add_option("sweep_file", sweep_file, "the sweep file (TOML)")->required();
@@ -224,6 +262,9 @@ int main(int argc, char** argv) {
                   "recompute points computed by another code version or for another case");
   sweep->add_flag("--report", sweep_report,
                   "only write sweep.csv and sweep_summary.csv from the points finished so far");
+  sweep->add_option("--shard", shard,
+                    "i/n: run only the points whose index is i modulo n, for job arrays "
+                    "(default --jobs 1); then write the tables from all shards' points");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -234,7 +275,8 @@ int main(int argc, char** argv) {
   }
   if (*run) return run_command(case_file, out, restart, sets, overwrite, quiet);
   if (*sweep)
-    return sweep_command(sweep_file, sweep_out, jobs, sweep_sets, sweep_overwrite, sweep_report);
+    return sweep_command(sweep_file, sweep_out, jobs, sweep_sets, sweep_overwrite, sweep_report,
+                         shard);
   if (*compare)
     return stickslip::compare_command(dir_a, dir_b, rtol, compare_out, std::cout, std::cerr);
   return 2;

@@ -70,11 +70,19 @@ PointState point_state(const SweepPoint& point, const std::filesystem::path& dir
 std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>& points,
                                const std::filesystem::path& out_dir);
 
+// `--shard i/n` for scheduler job arrays: this process runs the points whose
+// index ≡ i (mod n). Throws CaseError unless 0 ≤ i < n, both integers.
+struct Shard {
+  int index = 0, count = 1;
+};
+Shard parse_shard(const std::string& text);
+
 struct SweepOptions {
   std::filesystem::path out_dir;
   int jobs = 1;            // points run at once on this process
   bool overwrite = false;  // recompute points from another code version or case
-  int rank = 0, ranks = 1;  // this process's share: points with index % ranks == rank (MPI)
+  int rank = 0, ranks = 1;  // this process's share: points with index % ranks == rank
+                            // (an MPI rank, or a shard of a job array)
   std::filesystem::path executable;  // the stickslip binary that runs each point
 };
 
