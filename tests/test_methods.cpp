@@ -388,7 +388,7 @@ TEST_CASE("final_state.csv holds every node's state at t_end, only when asked fo
   CHECK(s.friction_force(t, y) == Approx(f_row).epsilon(1e-8));
 }
 
-TEST_CASE("method = auto runs dirk where no contact can stick-slip, imex where some can or at a "
+TEST_CASE("method = auto runs bdf where no contact can stick-slip, imex where some can or at a "
           "fixed step, and says why; an explicit method is used as given",
           "[methods][auto]") {
   Case c = short_smooth_run(1e-6);  // v* = 2e-3, 3e-3, 5e-3 against v = 1e-3
@@ -400,7 +400,7 @@ TEST_CASE("method = auto runs dirk where no contact can stick-slip, imex where s
   };
   const auto steady = summary("steady");
   CHECK(steady.at("case").at("solver").at("method") == "auto");
-  CHECK(steady.at("solver").at("method") == "dirk");
+  CHECK(steady.at("solver").at("method") == "bdf");
   CHECK(steady.at("solver").at("chosen_by").get<std::string>().find("no contact has v* below") !=
         std::string::npos);
 

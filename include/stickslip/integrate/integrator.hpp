@@ -100,9 +100,11 @@ std::vector<double> absolute_tolerances(const System& system, const SolverParams
 // The method "auto" runs, and why (summary.json says both). The rule follows
 // the work-precision benchmarks (docs/PERFORMANCE.md): where no contact can
 // stick-slip at the drive speed (every v* ≥ v: steady sliding, creep) the
-// implicit dirk wins by 40–100×, its steps growing to ~1e-4 s; where some
-// can, slips are frequent and imex, whose steps the lattice holds below
-// ~2e-7 s, is as fast or faster at equal μ error. A fixed step keeps imex.
+// implicit bdf wins by 40–100×, its steps growing to ~1e-4 s; where some
+// can, imex, whose steps the lattice holds below ~2e-7 s: dirk and bdf let a
+// contact load past its peak force before it slips (their large steps damp
+// the growing slip), so the slips come late and too large. A fixed step
+// keeps imex.
 struct MethodChoice {
   Method method;
   std::string reason;
