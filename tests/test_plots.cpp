@@ -2,6 +2,9 @@
 // each writes a PNG and a PDF, and the numbers it says it plotted are the
 // ones in the outputs it read.
 #include <catch2/catch.hpp>
+#include <array>
+#include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <nlohmann/json.hpp>
 #include <regex>
@@ -205,4 +208,102 @@ TEST_CASE("work_precision.py tabulates the least time per error level and the de
   // 1e-8 (90 s): 22.5 times the default's 4 s; rk4 at least 1.8e6 / 4.
   CHECK_THAT(table, Catch::Contains("step=1e-08, 90 s → ratio 22.5"));
   CHECK_THAT(table, Catch::Contains("ratio ≥ 4.5e+05"));
+}
+
+namespace {
+
+// spectrum.csv's columns f, psd_block_velocity, psd_acoustic.
+std::vector<std::array<double, 3>> spectrum(const fs::path& csv) {
+  std::istringstream in(slurp(csv));
+  std::string line;
+  std::getline(in, line);
+  REQUIRE(line == "f,psd_block_velocity,psd_acoustic");
+  std::vector<std::array<double, 3>> rows;
+  while (std::getline(in, line)) {
+    std::array<double, 3> r{};
+    REQUIRE(std::sscanf(line.c_str(), "%lf,%lf,%lf", &r[0], &r[1], &r[2]) == 3);
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+}  // namespace
+
+TEST_CASE("spectra.py: a sine's line at its frequency with its power (Parseval)",
+          "[plots][spectra]") {
+  Sandbox box("stickslip_plots_");
+  // 0.1 s sampled every 10 µs; the block velocity a sine of 1.25 kHz and
+  // amplitude 2e-3 m/s on an offset, the acoustic signal one of 7.5 kHz, 3 N/s.
+  std::ostringstream csv;
+  csv << "t,block_velocity,contact_impulse,acoustic\n";
+  for (int k = 0; k <= 10000; ++k) {
+    const double t = k * 1e-5;
+    char row[160];
+    std::snprintf(row, sizeof row, "%.12g,%.17g,0,%.17g\n", t,
+                  1e-3 + 2e-3 * std::sin(2 * M_PI * 1250 * t),
+                  k < 2 ? NAN : 3.0 * std::cos(2 * M_PI * 7500 * t));
+    csv << row;
+  }
+  fs::create_directories(box.work / "run");
+  box.write("run/signals.csv", csv.str());
+  box.write("run/summary.json", R"({"theta": 0.1, "average_from": 0.0, "t_end": 0.1})");
+  const auto missing = python(box, "spectra.py", "elsewhere");
+  CHECK(missing.code == 2);
+  CHECK_THAT(missing.out, Catch::Contains("elsewhere/signals.csv: not found") &&
+                              Catch::Contains("signals = true"));
+  const auto r = python(box, "spectra.py", "run --segment 0.008");
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  check_png(box.work / "run" / "spectrum.png");
+  const auto rows = spectrum(box.work / "run" / "spectrum.csv");
+  const double df = rows[1][0] - rows[0][0];
+  CHECK(df == Approx(125.0));  // 1 / 8 ms
+  for (int column : {1, 2}) {
+    const double line = column == 1 ? 1250 : 7500, variance = column == 1 ? 2e-6 : 4.5;
+    std::size_t peak = 0;
+    double power = 0;
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      if (rows[i][column] > rows[peak][column]) peak = i;
+      power += rows[i][column] * df;
+    }
+    INFO("column " << column);
+    CHECK(rows[peak][0] == Approx(line));
+    CHECK(power == Approx(variance).epsilon(0.01));  // the offset removed, A²/2 left
+  }
+}
+
+TEST_CASE("spectra.py on the Fig. 10b pair: lines at contact 0's slip rate, the block's "
+          "resonance", "[plots][spectra]") {
+  Sandbox box("stickslip_plots_");
+  const auto run = box.run({"run", std::string(STICKSLIP_SOURCE_DIR) + "/cases/fig10b.toml",
+                            "--out", "pair", "--set", "output.signals=true", "--quiet"});
+  INFO(run.out << run.err);
+  REQUIRE(run.code == 0);
+  const auto summary = nlohmann::json::parse(slurp(box.work / "pair" / "summary.json"));
+  const double recurrence =
+      summary["events"]["per_contact"][0]["mean_recurrence"].get<double>();  // ~0.28 ms
+  // One periodogram over the 2 ms window: 500 Hz bins.
+  const auto r = python(box, "spectra.py", "pair --segment 2e-3");
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  const auto rows = spectrum(box.work / "pair" / "spectrum.csv");
+  const double df = rows[1][0];
+  REQUIRE(df == Approx(500.0));
+  const auto nearest = static_cast<std::size_t>(std::lround(1 / recurrence / df));
+  for (int column : {1, 2}) {
+    INFO("column " << column << ", slip rate " << 1 / recurrence << " Hz");
+    // The lowest line is the slip rate: a local maximum at its bin, 100× above
+    // everything below 3/4 of it.
+    CHECK(rows[nearest][column] > rows[nearest - 1][column]);
+    CHECK(rows[nearest][column] > rows[nearest + 1][column]);
+    for (std::size_t i = 0; rows[i][0] < 0.75 / recurrence; ++i)
+      CHECK(rows[nearest][column] > 100 * rows[i][column]);
+  }
+  // The block velocity's strongest line is the block's own quarter-wave shear
+  // resonance, rung by every slip: held at the top by the drive springs,
+  // nearly free at the bottom, f = c_t / (4 Nz a) = 14.4 kHz (c_t = 57.7 m/s).
+  std::size_t peak = 1;
+  for (std::size_t i = 1; i < rows.size(); ++i)
+    if (rows[i][1] > rows[peak][1]) peak = i;
+  CHECK(rows[peak][0] == Approx(57.735 / (4 * 10 * 1e-4)).epsilon(0.1));
 }

@@ -124,7 +124,8 @@ nlohmann::json to_json(const Case& c) {
         {"traces", traces},
         {"events", selection(c.output.events, c.output.event_ids)},
         {"steps", c.output.steps},
-        {"final_state", c.output.final_state}}},
+        {"final_state", c.output.final_state},
+        {"signals", c.output.signals}}},
   };
 }
 

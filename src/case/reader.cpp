@@ -573,6 +573,9 @@ const std::vector<Entry>& schema() {
       {"output", "steps", "write steps.csv (every accepted step)", boolean(&OutputParams::steps)},
       {"output", "final_state", "write final_state.csv (every node's u and w at t_end)",
        boolean(&OutputParams::final_state)},
+      {"output", "signals",
+       "write signals.csv (block velocity and acoustic signal at every output time)",
+       boolean(&OutputParams::signals)},
   };
   return entries;
 }

@@ -477,6 +477,27 @@ double System::energy_residual(double t, std::span<const double> y,
   return work != 0.0 ? (change - net) / work : 0.0;
 }
 
+double System::block_velocity(std::span<const double> y) const {
+  double sum = 0.0;
+  for (std::int64_t n = 0; n < n_; ++n) sum += y[w_index(n, 0)];
+  return sum / static_cast<double>(n_);
+}
+
+double System::total_contact_force(std::span<const double> y) const {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < contacts_.size(); ++i)
+    sum += contact_acceleration(i, contact_velocity(i, y))[0];
+  return mass_ * sum;
+}
+
+double System::contact_impulse(double t, std::span<const double> y) const {
+  double momentum = 0.0, stretch = 0.0;
+  for (std::int64_t n = 0; n < n_; ++n) momentum += y[w_index(n, 0)];
+  const double anchor = v_ * t;
+  for (std::int64_t n = node(0, 0, nz_ - 1); n < n_; ++n) stretch += anchor - y[u_index(n, 0)];
+  return mass_ * (momentum - eta_ * stretch) - y[quadrature_index(friction_impulse)];
+}
+
 std::array<double, 2> System::contact_velocity(std::size_t i, std::span<const double> y) const {
   const std::int64_t wx = w_index(contact_node_[i], 0);
   return {y[wx], y[wx + 1]};

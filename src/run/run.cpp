@@ -115,6 +115,24 @@ void read_friction_series(const std::filesystem::path& file, double t_from,
   }
 }
 
+// The (t, contact_impulse) of signals.csv's last two rows (fewer if it has fewer).
+std::vector<std::array<double, 2>> last_signal_rows(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  std::string line;
+  std::getline(in, line);  // header
+  std::vector<std::array<double, 2>> rows;
+  while (std::getline(in, line)) {
+    char* end = nullptr;
+    const double t = std::strtod(line.c_str(), &end);
+    if (*end != ',') throw OutputError(file.string() + ": malformed row: " + line);
+    std::strtod(end + 1, &end);  // block velocity
+    if (*end != ',') throw OutputError(file.string() + ": malformed row: " + line);
+    rows.push_back({t, std::strtod(end + 1, nullptr)});
+    if (rows.size() > 2) rows.erase(rows.begin());
+  }
+  return rows;
+}
+
 }  // namespace
 
 void install_stop_handlers() {
@@ -144,7 +162,7 @@ RunResult run_case(const Case& c, const RunOptions& options) {
     if (resume->git_commit != kGitCommit)
       throw OutputError((dir / kCheckpointFile).string() + ": written by code version " +
                         resume->git_commit + ", this is " + kGitCommit);
-    for (const char* name : {"friction.csv", "traces.csv", "events.csv", "steps.csv"})
+    for (const char* name : {"friction.csv", "traces.csv", "events.csv", "steps.csv", "signals.csv"})
       keep_rows_up_to(dir / name, resume->t);
   } else {
     prepare_output_dir(dir, options.overwrite);
@@ -169,7 +187,16 @@ RunResult run_case(const Case& c, const RunOptions& options) {
   CsvWriter friction = open_csv("friction.csv", {"t", "F_f", "mu_inst"});
   const auto traced = selected(c.output.traces, c.output.trace_ids, contacts.size());
   const auto watched = selected(c.output.events, c.output.event_ids, contacts.size());
-  std::optional<CsvWriter> traces, events_csv, steps_csv;
+  std::optional<CsvWriter> traces, events_csv, steps_csv, signals;
+  // The acoustic signal is a second difference of the contact impulse over the
+  // output times: the last two rows' (t, impulse), read back on a restart.
+  std::vector<std::array<double, 2>> impulse_rows;
+  if (c.output.signals) {
+    if (resume) impulse_rows = last_signal_rows(dir / "signals.csv");
+    signals.emplace(
+        open_csv("signals.csv", {"t", "block_velocity", "contact_impulse", "acoustic"}));
+    signals->full_precision();  // the impulse is differenced twice
+  }
   if (!traced.empty()) {
     std::vector<std::string> header{"t"};
     for (int id : traced) {
@@ -269,6 +296,19 @@ RunResult run_case(const Case& c, const RunOptions& options) {
     const double ff = system.friction_force(t, y);
     const double row[2] = {ff, ff / normal_force};
     friction.row(t, row);
+    if (signals) {
+      const double impulse = system.contact_impulse(t, y);
+      double acoustic = std::nan("");
+      if (impulse_rows.size() == 2) {
+        const auto [t0, j0] = impulse_rows[0];
+        const auto [t1, j1] = impulse_rows[1];
+        acoustic = ((impulse - j1) / (t - t1) - (j1 - j0) / (t1 - t0)) / (0.5 * (t - t0));
+        impulse_rows.erase(impulse_rows.begin());
+      }
+      impulse_rows.push_back({t, impulse});
+      const double values[3] = {system.block_velocity(y), impulse, acoustic};
+      signals->row(t, values);
+    }
     if (traces) {
       for (std::size_t k = 0; k < traced.size(); ++k) {
         const auto v = system.contact_velocity(static_cast<std::size_t>(traced[k]), y);
@@ -312,6 +352,7 @@ RunResult run_case(const Case& c, const RunOptions& options) {
     if (traces) traces->flush();
     if (events_csv) events_csv->flush();
     if (steps_csv) steps_csv->flush();
+    if (signals) signals->flush();
   };
 
   if (!resume) record(0.0);

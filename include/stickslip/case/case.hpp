@@ -101,6 +101,7 @@ struct OutputParams {
   std::vector<int> event_ids;                       // when events == list
   bool steps = false;                               // write steps.csv
   bool final_state = false;                         // write final_state.csv
+  bool signals = false;  // write signals.csv (block velocity, acoustic signal)
 };
 
 struct Case {

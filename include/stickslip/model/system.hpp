@@ -149,6 +149,20 @@ class System {
   bool slipping(std::size_t i, std::span<const double> y) const;
   double contact_force(std::size_t i, std::span<const double> y) const;  // |F_contact| [N]
 
+  // The block's centre-of-mass x-velocity (all nodes have the same mass) [m/s].
+  double block_velocity(std::span<const double> y) const;
+  // The x component of the total contact force Σ_c F_contact,c (§6) at the
+  // contacts' velocities in y [N]. Where a contact sticks, its force changes
+  // by ~1e15 m per m/s of speed, far below the velocity tolerance: from an
+  // interpolated state it is noise. contact_impulse is not.
+  double total_contact_force(std::span<const double> y) const;
+  // ∫₀ᵗ Σ_c F^x_contact,c dt' (+ the block's momentum at t = 0) from the
+  // momentum balance: the lattice's internal forces cancel (periodic in x and
+  // y), so d/dt Σ m w_x = F_drive,x + F_contact,x, and the drive's impulse is
+  // the friction impulse (a quadrature of y) plus its dashpots', m η Σ_top
+  // (v t − u_x). Accurate wherever the state is [N s].
+  double contact_impulse(double t, std::span<const double> y) const;
+
   // Exact μ of steady sliding at the drive velocity (§7).
   double steady_sliding_mu() const;
 
