@@ -78,7 +78,7 @@ MethodChoice choose_method(const System& system, const SolverParams& solver) {
     if (c.v_star < system.drive_velocity()) ++weak;
   // bdf rather than dirk: on the 30 points of Fig. 7 at v = 3e-4 both agree
   // to 2.4e-6 in μ, bdf took 1-7 s on each, dirk up to 54 s and stalled on
-  // one (its contact Newton failing at the large γ of 1e-3 s steps).
+  // one (its contacts' Newton failing again and again in the creep).
   if (weak == 0)
     return {Method::bdf, "method = \"auto\": bdf, since no contact has v* below the drive "
                          "speed (steady sliding or creep, where its steps grow; "

@@ -101,10 +101,9 @@ std::vector<double> absolute_tolerances(const System& system, const SolverParams
 // the work-precision benchmarks (docs/PERFORMANCE.md): where no contact can
 // stick-slip at the drive speed (every v* ≥ v: steady sliding, creep) the
 // implicit bdf wins by 40–100×, its steps growing to ~1e-4 s; where some
-// can, imex, whose steps the lattice holds below ~2e-7 s: dirk and bdf let a
-// contact load past its peak force before it slips (their large steps damp
-// the growing slip), so the slips come late and too large. A fixed step
-// keeps imex.
+// can, imex, whose steps the lattice holds below ~2e-7 s: with dirk and bdf
+// the block loads past the force at which it slips, so the slips come late
+// and too large (cause open, docs/PERFORMANCE.md). A fixed step keeps imex.
 struct MethodChoice {
   Method method;
   std::string reason;
