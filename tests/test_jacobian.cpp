@@ -1,6 +1,7 @@
 // The sparse Jacobians against central finite differences of the rhs.
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "stickslip/model/system.hpp"
@@ -34,9 +35,16 @@ struct Fixture {
   }
 };
 
+// The largest error of any entry against a central finite difference, each
+// in units of that entry's own tolerance: 1e-5 of the entry (or of the
+// difference quotient) plus the rounding of the quotient, 8 ε (|f_i| plus
+// the size of the terms it sums) / h.
+// Per entry, not against the largest entry (~3e11 s⁻², the elastic terms):
+// that scale would hide an error in a damping term (~1e5 s⁻¹) or in the
+// u̇ = w rows (1).
 template <class Rhs>
-void compare_with_finite_differences(const System& s, const std::vector<double>& y,
-                                     const SparseJacobian& jac, Rhs rhs) {
+double worst_entry_error(const System& s, const std::vector<double>& y, const SparseJacobian& jac,
+                         Rhs rhs) {
   const auto size = static_cast<std::size_t>(s.size());
   // Dense copy of the sparse matrix.
   std::vector<double> dense(size * size, 0.0);
@@ -44,10 +52,16 @@ void compare_with_finite_differences(const System& s, const std::vector<double>&
     for (auto k = jac.row_start[r]; k < jac.row_start[r + 1]; ++k)
       dense[r * size + jac.column[k]] = jac.value[k];
   std::vector<double> yp = y, ym = y, fp(size), fm(size);
-  double worst = 0.0, scale = 0.0;
-  for (double v : jac.value) scale = std::max(scale, std::abs(v));
+  double worst = 0.0;
   // Quadrature rows are left out of the Jacobian on purpose (nothing depends on them).
   const std::size_t rows = 6 * s.num_nodes();
+  constexpr double eps = std::numeric_limits<double>::epsilon();
+  // The rhs sums terms far larger than itself (elastic forces of nearly equal
+  // neighbours): its rounding is relative to Σ_j |J_ij y_j|, not to |f_i|.
+  std::vector<double> terms(rows, 0.0);
+  for (std::size_t r = 0; r < rows; ++r)
+    for (auto k = jac.row_start[r]; k < jac.row_start[r + 1]; ++k)
+      terms[r] += std::abs(jac.value[k] * y[static_cast<std::size_t>(jac.column[k])]);
   for (std::size_t j = 0; j < rows; ++j) {
     const double h = 1e-7 * std::max(std::abs(y[j]), j < 3 * s.num_nodes() ? 1e-6 : 1e-4);
     yp[j] = y[j] + h;
@@ -56,12 +70,25 @@ void compare_with_finite_differences(const System& s, const std::vector<double>&
     rhs(ym, fm);
     yp[j] = ym[j] = y[j];
     for (std::size_t i = 0; i < rows; ++i) {
-      const double fd = (fp[i] - fm[i]) / (2 * h);
-      const double err = std::abs(fd - dense[i * size + j]);
-      worst = std::max(worst, err / (1e-6 * scale + 1e-5 * std::abs(fd)));
+      const double fd = (fp[i] - fm[i]) / (2 * h), entry = dense[i * size + j];
+      const double rounding =
+          8 * eps * (terms[i] + std::max(std::abs(fp[i]), std::abs(fm[i]))) / h;
+      const double tolerance = 1e-5 * std::max(std::abs(entry), std::abs(fd)) + rounding;
+      worst = std::max(worst, std::abs(fd - entry) / tolerance);
     }
   }
-  CHECK(worst <= 1.0);
+  return worst;
+}
+
+// The same Jacobian with the entries that `pick(row, column)` selects scaled
+// by 1 + 1e-3: what worst_entry_error must catch.
+template <class Pick>
+SparseJacobian perturbed(const SparseJacobian& jac, Pick pick) {
+  SparseJacobian out = jac;
+  for (std::int64_t r = 0; r < jac.size; ++r)
+    for (auto k = jac.row_start[r]; k < jac.row_start[r + 1]; ++k)
+      if (pick(r, jac.column[k])) out.value[k] *= 1 + 1e-3;
+  return out;
 }
 
 }  // namespace
@@ -71,8 +98,24 @@ TEST_CASE("full Jacobian matches finite differences", "[jacobian]") {
   const System& s = *f.system;
   auto jac = s.jacobian_pattern(JacobianPart::full);
   s.jacobian_values(f.y, jac);
-  compare_with_finite_differences(s, f.y, jac,
-                                  [&](const auto& y, auto& out) { s.rhs(0.0, y, out); });
+  auto rhs = [&](const auto& y, auto& out) { s.rhs(0.0, y, out); };
+  CHECK(worst_entry_error(s, f.y, jac, rhs) <= 1.0);
+
+  // Every kind of entry is checked at its own scale: a 0.1 % error in the
+  // u̇ = w identity, in the damping (∂a/∂w away from the contacts) or in the
+  // elastic terms (∂a/∂u) is caught.
+  const std::int64_t n3 = 3 * s.num_nodes();
+  std::vector<bool> contact_row(static_cast<std::size_t>(s.size()), false);
+  for (std::size_t c = 0; c < s.contacts().size(); ++c)
+    for (int k = 0; k < 2; ++k) contact_row[s.w_index(s.contact_node(c), k)] = true;
+  const auto identity = perturbed(jac, [&](auto r, auto col) { return r < n3 && col >= n3; });
+  const auto damping = perturbed(jac, [&](auto r, auto col) {
+    return r >= n3 && r < 2 * n3 && col >= n3 && !contact_row[static_cast<std::size_t>(r)];
+  });
+  const auto elastic = perturbed(jac, [&](auto r, auto col) { return r >= n3 && col < n3; });
+  CHECK(worst_entry_error(s, f.y, identity, rhs) > 10.0);
+  CHECK(worst_entry_error(s, f.y, damping, rhs) > 10.0);
+  CHECK(worst_entry_error(s, f.y, elastic, rhs) > 10.0);
 }
 
 TEST_CASE("contact Jacobian matches finite differences of the implicit rhs", "[jacobian]") {
@@ -82,8 +125,8 @@ TEST_CASE("contact Jacobian matches finite differences of the implicit rhs", "[j
   // Identity-free: the diagonal is present but zero, plus a 2×2 block per contact.
   CHECK(jac.nonzeros() == s.size() + 2 * static_cast<std::int64_t>(s.contacts().size()));
   s.jacobian_values(f.y, jac);
-  compare_with_finite_differences(s, f.y, jac,
-                                  [&](const auto& y, auto& out) { s.rhs_implicit(0.0, y, out); });
+  CHECK(worst_entry_error(s, f.y, jac,
+                          [&](const auto& y, auto& out) { s.rhs_implicit(0.0, y, out); }) <= 1.0);
 }
 
 TEST_CASE("every diagonal entry is in the pattern", "[jacobian]") {
