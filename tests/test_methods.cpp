@@ -114,7 +114,7 @@ TEST_CASE("each method converges at its stated order", "[methods][order]") {
 }
 
 TEST_CASE("a slip event agrees with the crossing of a dense fixed-step solution",
-          "[methods][events]") {
+          "[slow][methods][events]") {
   Case c = smooth_case();
   c.lattice = {6, 6, 4, 1e-4};
   c.interface.epsilon = 1e-2;
@@ -186,7 +186,7 @@ TEST_CASE("events = none registers no root functions", "[methods][events]") {
   CHECK(fs::exists(options.out_dir / "events.csv"));
 }
 
-TEST_CASE("an adaptive run agrees with a fine fixed-step run", "[methods][compare]") {
+TEST_CASE("an adaptive run agrees with a fine fixed-step run", "[slow][methods][compare]") {
   // Two contacts on a small lattice through their first slips; the adaptive
   // run at default tolerances against imex at a fixed 5 ns step.
   Case c;
@@ -296,7 +296,7 @@ TEST_CASE("a run whose energy audit exceeds the bound reports no mu", "[methods]
   CHECK(fs::exists(options.out_dir / "friction.csv"));  // the rows computed are kept
 }
 
-TEST_CASE("recording steps.csv does not change a run", "[methods][steps]") {
+TEST_CASE("recording steps.csv does not change a run", "[slow][methods][steps]") {
   // The same run with and without steps.csv: every output byte for byte. With
   // ARKStep's post-step hook, case `many` gave ~1160 spurious stick/slip
   // events in 0.3 ms, where there are none.
@@ -508,7 +508,7 @@ TEST_CASE("dirk and bdf run from rest through the pair's first slips, at imex's 
 }
 
 TEST_CASE("the contact impulse from the momentum balance is the integral of the contact force",
-          "[methods][signals]") {
+          "[slow][methods][signals]") {
   // Sliding with the paper's ε: the contact forces are large and change as
   // the kicked lattice rings, and no contact is near rest, where the force
   // read from the state would be noise.

@@ -68,7 +68,7 @@ void check_png(const fs::path& png) {
 
 }  // namespace
 
-TEST_CASE("fig7.py, fig9.py and epsilon.py plot the sweep's mean mu per coverage", "[plots]") {
+TEST_CASE("fig7.py, fig9.py and epsilon.py plot the sweep's mean mu per coverage", "[slow][plots]") {
   Sandbox box("stickslip_plots_");
   box.write("base.toml", kTinyBase);
   box.write("s.toml",
@@ -128,7 +128,7 @@ TEST_CASE("fig7.py, fig9.py and epsilon.py plot the sweep's mean mu per coverage
 }
 
 TEST_CASE("fig8.py, fig10.py, traces.py and pair_separation.py plot what the runs wrote",
-          "[plots]") {
+          "[slow][plots]") {
   Sandbox box("stickslip_plots_");
   box.write("base.toml", kTinyBase);
   box.write("two.toml", kTwoContacts);
@@ -273,7 +273,7 @@ TEST_CASE("spectra.py: a sine's line at its frequency with its power (Parseval)"
 }
 
 TEST_CASE("spectra.py on the Fig. 10b pair: lines at contact 0's slip rate, the block's "
-          "resonance", "[plots][spectra]") {
+          "resonance", "[slow][plots][spectra]") {
   Sandbox box("stickslip_plots_");
   const auto run = box.run({"run", std::string(STICKSLIP_SOURCE_DIR) + "/cases/fig10b.toml",
                             "--out", "pair", "--set", "output.signals=true", "--quiet"});

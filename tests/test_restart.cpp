@@ -74,7 +74,7 @@ std::vector<std::vector<double>> signal_rows(const fs::path& csv) {
 
 }  // namespace
 
-TEST_CASE("a run stopped by SIGTERM and restarted agrees with an uninterrupted one", "[restart]") {
+TEST_CASE("a run stopped by SIGTERM and restarted agrees with an uninterrupted one", "[slow][restart]") {
   const fs::path box = fs::temp_directory_path() / "stickslip_test_restart";
   fs::remove_all(box);
   fs::create_directories(box);
@@ -142,7 +142,7 @@ TEST_CASE("a run stopped by SIGTERM and restarted agrees with an uninterrupted o
 }
 
 TEST_CASE("SIGTERM inside a long output interval stops the run at once and it restarts",
-          "[restart]") {
+          "[slow][restart]") {
   const fs::path box = fs::temp_directory_path() / "stickslip_test_restart_mid";
   fs::remove_all(box);
   fs::create_directories(box);

@@ -280,7 +280,7 @@ TEST_CASE("every file in bench/cases/ is a valid case", "[sweep][cases]") {
 }
 
 TEST_CASE("an interrupted sweep continues its stopped points from their checkpoints",
-          "[sweep][restart]") {
+          "[slow][sweep][restart]") {
   Sandbox box;
   // Two contacts through several slips: a restart starts the integrator
   // afresh, which perturbs the solution at the level of rtol and shifts
