@@ -59,28 +59,28 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
   ARKRhsFn fi = stages == StageSolve::none          ? nullptr
                 : stages == StageSolve::per_contact ? implicit_rhs
                                                     : full_rhs;
-  arkode_mem_ = ARKStepCreate(fe, fi, t0, y_.get(), ctx_);
-  check_created(arkode_mem_, "ARKStepCreate");
-  check(ARKStepSetUserData(arkode_mem_, this), "ARKStepSetUserData");
+  arkode_mem_.reset(ARKStepCreate(fe, fi, t0, y_.get(), ctx_));
+  check_created(arkode_mem_.get(), "ARKStepCreate");
+  check(ARKStepSetUserData(arkode_mem_.get(), this), "ARKStepSetUserData");
   atol_ = make_serial_vector(absolute_tolerances(system, solver), ctx_);
-  check(ARKStepSVtolerances(arkode_mem_, solver.rtol, atol_.get()), "ARKStepSVtolerances");
-  check(ARKStepSetStopTime(arkode_mem_, t_stop), "ARKStepSetStopTime");
-  check(ARKStepSetErrHandlerFn(arkode_mem_, print_solver_message, nullptr),
+  check(ARKStepSVtolerances(arkode_mem_.get(), solver.rtol, atol_.get()), "ARKStepSVtolerances");
+  check(ARKStepSetStopTime(arkode_mem_.get(), t_stop), "ARKStepSetStopTime");
+  check(ARKStepSetErrHandlerFn(arkode_mem_.get(), print_solver_message, nullptr),
         "ARKStepSetErrHandlerFn");
 
   if (solver.method == Method::rk4) {
     ARKodeButcherTable table = classic_rk4();
     check_created(table, "ARKodeButcherTable_Create");
-    const int flag = ARKStepSetTables(arkode_mem_, 4, 0, nullptr, table);
+    const int flag = ARKStepSetTables(arkode_mem_.get(), 4, 0, nullptr, table);
     ARKodeButcherTable_Free(table);  // ARKStep keeps its own copy
     check(flag, "ARKStepSetTables");
   } else if (fe == nullptr) {
-    check(ARKStepSetTableNum(arkode_mem_, dirk_table(solver.order), ARKODE_ERK_NONE),
+    check(ARKStepSetTableNum(arkode_mem_.get(), dirk_table(solver.order), ARKODE_ERK_NONE),
           "ARKStepSetTableNum");
   } else if (solver.order > 0) {
-    check(ARKStepSetOrder(arkode_mem_, solver.order), "ARKStepSetOrder");
+    check(ARKStepSetOrder(arkode_mem_.get(), solver.order), "ARKStepSetOrder");
   }
-  if (solver.step > 0) check(ARKStepSetFixedStep(arkode_mem_, solver.step), "ARKStepSetFixedStep");
+  if (solver.step > 0) check(ARKStepSetFixedStep(arkode_mem_.get(), solver.step), "ARKStepSetFixedStep");
 
   switch (stages) {
     case StageSolve::none:
@@ -94,21 +94,21 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
             return system.solve_implicit_stage(gamma, predictor, z);
           },
           stage_stats_);
-      check(ARKStepSetNonlinearSolver(arkode_mem_, stage_solver_.get()),
+      check(ARKStepSetNonlinearSolver(arkode_mem_.get(), stage_solver_.get()),
             "ARKStepSetNonlinearSolver");
       break;
     case StageSolve::exact_lattice:
       // Steps grow to ~1e-4 s while the contacts creep; where a slip starts
       // they must shrink by 1e5 within one step, more than the default 7
       // error-test failures (each cuts h by at most 10×) allow.
-      check(ARKStepSetMaxErrTestFails(arkode_mem_, kMaxErrorTestFailures),
+      check(ARKStepSetMaxErrTestFails(arkode_mem_.get(), kMaxErrorTestFailures),
             "ARKStepSetMaxErrTestFails");
       lattice_stages_ = std::make_unique<LatticeStageSolver>(system);
       stage_solver_ = make_exact_stage_solver(
           ctx_, StagePackage::arkstep,
           std::bind_front(&LatticeStageSolver::solve, lattice_stages_.get()),
           stage_stats_);
-      check(ARKStepSetNonlinearSolver(arkode_mem_, stage_solver_.get()),
+      check(ARKStepSetNonlinearSolver(arkode_mem_.get(), stage_solver_.get()),
             "ARKStepSetNonlinearSolver");
       break;
     case StageSolve::newton_klu:
@@ -118,9 +118,9 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
       matrix_ = make_sparse_matrix(jacobian_, ctx_);
       linear_solver_.reset(SUNLinSol_KLU(y_.get(), matrix_.get(), ctx_));
       check_created(linear_solver_.get(), "SUNLinSol_KLU");
-      check(ARKStepSetLinearSolver(arkode_mem_, linear_solver_.get(), matrix_.get()),
+      check(ARKStepSetLinearSolver(arkode_mem_.get(), linear_solver_.get(), matrix_.get()),
             "ARKStepSetLinearSolver");
-      check(ARKStepSetJacFn(arkode_mem_,
+      check(ARKStepSetJacFn(arkode_mem_.get(),
                             [](double, N_Vector y, N_Vector, SUNMatrix J, void* self, N_Vector,
                                N_Vector, N_Vector) {
                               auto* me = static_cast<ArkStepIntegrator*>(self);
@@ -135,7 +135,7 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
 
   init_stepping(options_.watched_contacts.size());
   if (!roots_.empty())
-    check(ARKStepRootInit(arkode_mem_, static_cast<int>(roots_.size()), root_fn),
+    check(ARKStepRootInit(arkode_mem_.get(), static_cast<int>(roots_.size()), root_fn),
           "ARKStepRootInit");
   if (options_.on_step) {
     scratch_error_.reset(N_VClone(y_.get()));
@@ -143,8 +143,8 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
   }
 }
 
-ArkStepIntegrator::~ArkStepIntegrator() {
-  ARKStepFree(&arkode_mem_);
+void ArkodeMemDeleter::operator()(void* mem) const {
+  ARKStepFree(&mem);
 }
 
 int ArkStepIntegrator::full_rhs(double t, N_Vector y, N_Vector ydot, void* self) {
@@ -172,55 +172,55 @@ int ArkStepIntegrator::root_fn(double, N_Vector y, double* g, void* self) {
 
 double ArkStepIntegrator::current_time() const {
   double t = 0.0;
-  ARKStepGetCurrentTime(arkode_mem_, &t);
+  ARKStepGetCurrentTime(arkode_mem_.get(), &t);
   return t;
 }
 
 long ArkStepIntegrator::steps_taken() const {
   long n = 0;
-  ARKStepGetNumSteps(arkode_mem_, &n);
+  ARKStepGetNumSteps(arkode_mem_.get(), &n);
   return n;
 }
 
 double ArkStepIntegrator::last_step_size() const {
   double h = 0.0;
-  ARKStepGetLastStep(arkode_mem_, &h);
+  ARKStepGetLastStep(arkode_mem_.get(), &h);
   return h;
 }
 
 void ArkStepIntegrator::set_max_steps(long steps) {
-  check(ARKStepSetMaxNumSteps(arkode_mem_, steps), "ARKStepSetMaxNumSteps");
+  check(ARKStepSetMaxNumSteps(arkode_mem_.get(), steps), "ARKStepSetMaxNumSteps");
 }
 
 int ArkStepIntegrator::evolve(double t_out, double* t, bool one_step) {
   static_assert(ARK_SUCCESS == kSuccess && ARK_TSTOP_RETURN == kStopTime &&
                 ARK_ROOT_RETURN == kRoot && ARK_TOO_MUCH_WORK == kTooMuchWork);
   const int flag =
-      ARKStepEvolve(arkode_mem_, t_out, y_.get(), t, one_step ? ARK_ONE_STEP : ARK_NORMAL);
+      ARKStepEvolve(arkode_mem_.get(), t_out, y_.get(), t, one_step ? ARK_ONE_STEP : ARK_NORMAL);
   if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
   return flag;
 }
 
 void ArkStepIntegrator::root_info(int* roots) {
-  check(ARKStepGetRootInfo(arkode_mem_, roots), "ARKStepGetRootInfo");
+  check(ARKStepGetRootInfo(arkode_mem_.get(), roots), "ARKStepGetRootInfo");
 }
 
 void ArkStepIntegrator::interpolate(double t, N_Vector y) {
-  check(ARKStepGetDky(arkode_mem_, t, 0, y), "ARKStepGetDky");
+  check(ARKStepGetDky(arkode_mem_.get(), t, 0, y), "ARKStepGetDky");
 }
 
 double ArkStepIntegrator::local_error_norm() {
   if (solver_.method == Method::rk4 ||  // no error estimate
-      ARKStepGetEstLocalErrors(arkode_mem_, scratch_error_.get()) < 0 ||
-      ARKStepGetErrWeights(arkode_mem_, scratch_weights_.get()) < 0)
+      ARKStepGetEstLocalErrors(arkode_mem_.get(), scratch_error_.get()) < 0 ||
+      ARKStepGetErrWeights(arkode_mem_.get(), scratch_weights_.get()) < 0)
     return std::numeric_limits<double>::quiet_NaN();  // rk4 has no error estimate
   return N_VWrmsNorm(scratch_error_.get(), scratch_weights_.get());
 }
 
 void ArkStepIntegrator::throw_failure(int flag, double t) {
   NVectorPtr err(N_VClone(y_.get())), weights(N_VClone(y_.get()));
-  const bool have = ARKStepGetEstLocalErrors(arkode_mem_, err.get()) >= 0 &&
-                    ARKStepGetErrWeights(arkode_mem_, weights.get()) >= 0;
+  const bool have = ARKStepGetEstLocalErrors(arkode_mem_.get(), err.get()) >= 0 &&
+                    ARKStepGetErrWeights(arkode_mem_.get(), weights.get()) >= 0;
   throw IntegrationError(describe_failure(system_, "ARKStepEvolve", ARKStepGetReturnFlagName(flag),
                                           t, err.get(), weights.get(), have));
 }
@@ -229,11 +229,11 @@ SolverStats ArkStepIntegrator::stats() const {
   SolverStats s;
   long expl = 0, acc = 0;
   double h0 = 0, hcur = 0, tcur = 0;
-  ARKStepGetStepStats(arkode_mem_, &s.steps, &h0, &s.last_step, &hcur, &tcur);
-  ARKStepGetTimestepperStats(arkode_mem_, &expl, &acc, &s.step_attempts, &s.rhs_explicit,
+  ARKStepGetStepStats(arkode_mem_.get(), &s.steps, &h0, &s.last_step, &hcur, &tcur);
+  ARKStepGetTimestepperStats(arkode_mem_.get(), &expl, &acc, &s.step_attempts, &s.rhs_explicit,
                              &s.rhs_implicit, &s.linear_setups, &s.error_test_failures);
-  ARKStepGetNumStepSolveFails(arkode_mem_, &s.convergence_failures);
-  if (!roots_.empty()) ARKStepGetNumGEvals(arkode_mem_, &s.root_evaluations);
+  ARKStepGetNumStepSolveFails(arkode_mem_.get(), &s.convergence_failures);
+  if (!roots_.empty()) ARKStepGetNumGEvals(arkode_mem_.get(), &s.root_evaluations);
   switch (setup_.stages) {
     case StageSolve::none:
       break;
@@ -245,8 +245,8 @@ SolverStats ArkStepIntegrator::stats() const {
       s.linear_setups = lattice_stages_->lattice().factorizations();
       break;
     case StageSolve::newton_klu:
-      ARKStepGetNumNonlinSolvIters(arkode_mem_, &s.newton_iterations);
-      ARKStepGetNumJacEvals(arkode_mem_, &s.jacobian_evaluations);
+      ARKStepGetNumNonlinSolvIters(arkode_mem_.get(), &s.newton_iterations);
+      ARKStepGetNumJacEvals(arkode_mem_.get(), &s.jacobian_evaluations);
       break;
   }
   return s;
@@ -254,7 +254,7 @@ SolverStats ArkStepIntegrator::stats() const {
 
 nlohmann::json ArkStepIntegrator::description() const {
   ARKodeButcherTable bi = nullptr, be = nullptr;
-  ARKStepGetCurrentButcherTables(arkode_mem_, &bi, &be);
+  ARKStepGetCurrentButcherTables(arkode_mem_.get(), &bi, &be);
   const int order = bi ? bi->q : (be ? be->q : 0);
   nlohmann::json d = {{"method", to_string(solver_.method)},
                       {"integrator", setup_.integrator},

@@ -15,7 +15,6 @@ class ArkStepIntegrator final : public SteppingIntegrator {
  public:
   ArkStepIntegrator(const System& system, const SolverParams& solver, std::span<const double> y0,
                     double t0, double t_stop, IntegratorOptions options);
-  ~ArkStepIntegrator() override;
   ArkStepIntegrator(const ArkStepIntegrator&) = delete;
   ArkStepIntegrator& operator=(const ArkStepIntegrator&) = delete;
 
@@ -46,7 +45,7 @@ class ArkStepIntegrator final : public SteppingIntegrator {
   MatrixPtr matrix_;
   LinearSolverPtr linear_solver_;
   SparseJacobian jacobian_;
-  void* arkode_mem_ = nullptr;
+  ArkodeMemPtr arkode_mem_;  // after what it refers to, so freed before it
   std::exception_ptr pending_;
 };
 

@@ -16,7 +16,6 @@ class CvodeIntegrator final : public SteppingIntegrator {
  public:
   CvodeIntegrator(const System& system, const SolverParams& solver, std::span<const double> y0,
                   double t0, double t_stop, IntegratorOptions options);
-  ~CvodeIntegrator() override;
   CvodeIntegrator(const CvodeIntegrator&) = delete;
   CvodeIntegrator& operator=(const CvodeIntegrator&) = delete;
 
@@ -48,7 +47,7 @@ class CvodeIntegrator final : public SteppingIntegrator {
   MatrixPtr matrix_;
   LinearSolverPtr linear_solver_;
   SparseJacobian jacobian_;
-  void* cvode_mem_ = nullptr;
+  CvodeMemPtr cvode_mem_;  // after what it refers to, so freed before it
   std::exception_ptr pending_;
 };
 

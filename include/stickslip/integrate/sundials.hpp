@@ -47,7 +47,16 @@ struct MatrixDeleter {
 struct LinearSolverDeleter {
   void operator()(SUNLinearSolver s) const { SUNLinSolFree(s); }
 };
+// The integrators' memory blocks (ARKStepFree, CVodeFree; defined with the adapters).
+struct ArkodeMemDeleter {
+  void operator()(void* mem) const;
+};
+struct CvodeMemDeleter {
+  void operator()(void* mem) const;
+};
 using NVectorPtr = std::unique_ptr<std::remove_pointer_t<N_Vector>, NVectorDeleter>;
+using ArkodeMemPtr = std::unique_ptr<void, ArkodeMemDeleter>;
+using CvodeMemPtr = std::unique_ptr<void, CvodeMemDeleter>;
 using MatrixPtr = std::unique_ptr<std::remove_pointer_t<SUNMatrix>, MatrixDeleter>;
 using LinearSolverPtr =
     std::unique_ptr<std::remove_pointer_t<SUNLinearSolver>, LinearSolverDeleter>;
@@ -75,20 +84,13 @@ inline std::span<double> as_span(N_Vector v) {
 // The exception boundary: runs `body` inside a C callback. Returns 0 on
 // success; on a C++ exception stores it in `slot` (rethrown by the adapter
 // after the SUNDIALS call returns) and returns −1, so no exception ever
-// crosses a SUNDIALS frame. A RecoverableError asks the solver to retry with a
-// smaller step (return 1).
-class RecoverableError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
+// crosses a SUNDIALS frame.
 
 template <class Body>
 int guarded(std::exception_ptr& slot, Body&& body) noexcept {
   try {
     body();
     return 0;
-  } catch (const RecoverableError&) {
-    return 1;
   } catch (...) {
     slot = std::current_exception();
     return -1;
