@@ -8,8 +8,6 @@
 
 #include "stickslip/case/reader.hpp"
 
-#include "toml_text.hpp"
-
 #include <toml++/toml.h>
 
 #include <algorithm>
@@ -27,6 +25,8 @@
 #include <numeric>
 #include <sstream>
 #include <utility>
+
+#include "toml_text.hpp"
 
 namespace stickslip {
 namespace toml_text {
@@ -88,7 +88,6 @@ std::string suggest(std::string_view name, const std::vector<std::string_view>& 
   for (auto v : valid) all += (all.empty() ? "" : ", ") + std::string(v);
   return " (valid: " + all + ")";
 }
-
 
 // Decodes the UTF-8 sequence at s[i] into `cp`; returns its length, 0 if it is not valid UTF-8.
 std::size_t utf8_at(std::string_view s, std::size_t i, char32_t& cp) {
@@ -368,7 +367,6 @@ using Apply = std::function<void(Reader&, const toml::node&, const std::string& 
 
 struct Entry {
   std::string_view section, key;
-  std::string_view help;
   Apply apply;
 };
 
@@ -499,83 +497,63 @@ Apply boolean(bool OutputParams::*m) {
 
 const std::vector<Entry>& schema() {
   static const std::vector<Entry> entries = {
-      {"lattice", "nx", "sites along x", integer(&Case::lattice, &LatticeParams::nx, 1)},
-      {"lattice", "ny", "sites along y", integer(&Case::lattice, &LatticeParams::ny, 1)},
-      {"lattice", "nz", "layers, interface included",
-       integer(&Case::lattice, &LatticeParams::nz, 2)},
-      {"lattice", "spacing", "a [m]", real(&Case::lattice, &LatticeParams::spacing, kPositive)},
-      {"material", "density", "ρ [kg/m³]",
-       real(&Case::material, &MaterialParams::density, kPositive)},
-      {"material", "youngs_modulus", "E [Pa]",
+      {"lattice", "nx", integer(&Case::lattice, &LatticeParams::nx, 1)},
+      {"lattice", "ny", integer(&Case::lattice, &LatticeParams::ny, 1)},
+      {"lattice", "nz", integer(&Case::lattice, &LatticeParams::nz, 2)},
+      {"lattice", "spacing", real(&Case::lattice, &LatticeParams::spacing, kPositive)},
+      {"material", "density", real(&Case::material, &MaterialParams::density, kPositive)},
+      {"material", "youngs_modulus",
        real(&Case::material, &MaterialParams::youngs_modulus, kPositive)},
-      {"material", "poisson_ratio", "ν",
+      {"material", "poisson_ratio",
        real(&Case::material, &MaterialParams::poisson_ratio, Range{-1, 0.5, true, false})},
-      {"material", "grad_div", "G2 = (1+2ν) G1 (paper) or G1/(1−2ν) (navier)",
+      {"material", "grad_div",
        choice(&Case::material, &MaterialParams::grad_div, GradDiv::paper, GradDiv::navier)},
-      {"damping", "bulk", "η/ω0", real(&Case::damping, &DampingParams::bulk, kNonNegative)},
-      {"damping", "contact", "η_c/ω0", real(&Case::damping, &DampingParams::contact, kNonNegative)},
-      {"interface", "coverage", "θ, fraction of interface sites in contact",
+      {"damping", "bulk", real(&Case::damping, &DampingParams::bulk, kNonNegative)},
+      {"damping", "contact", real(&Case::damping, &DampingParams::contact, kNonNegative)},
+      {"interface", "coverage",
        real(&Case::interface, &InterfaceParams::coverage, Range{0, 1, true, false})},
-      {"interface", "seed", "placement and v* draws",
-       integer(&Case::interface, &InterfaceParams::seed, 0)},
-      {"interface", "shear_stress", "τ_f [Pa]",
+      {"interface", "seed", integer(&Case::interface, &InterfaceParams::seed, 0)},
+      {"interface", "shear_stress",
        real(&Case::interface, &InterfaceParams::shear_stress, kPositive)},
-      {"interface", "shape", "c in φ(r) = exp(−c (log10 r)²)",
-       real(&Case::interface, &InterfaceParams::shape, kPositive)},
-      {"interface", "v_m", "centre of the v* distribution [m/s]",
-       real(&Case::interface, &InterfaceParams::v_m, kPositive)},
-      {"interface", "spread", "δ, half-width of log10 v* [decades]",
-       real(&Case::interface, &InterfaceParams::spread, kNonNegative)},
-      {"interface", "epsilon", "ε, force scaling",
-       real(&Case::interface, &InterfaceParams::epsilon, kPositive)},
-      {"interface", "max_pressure", "P0 [Pa]",
+      {"interface", "shape", real(&Case::interface, &InterfaceParams::shape, kPositive)},
+      {"interface", "v_m", real(&Case::interface, &InterfaceParams::v_m, kPositive)},
+      {"interface", "spread", real(&Case::interface, &InterfaceParams::spread, kNonNegative)},
+      {"interface", "epsilon", real(&Case::interface, &InterfaceParams::epsilon, kPositive)},
+      {"interface", "max_pressure",
        real(&Case::interface, &InterfaceParams::max_pressure, kPositive)},
-      {"interface", "slip_threshold", "κ: slipping while |s| > κ v*",
+      {"interface", "slip_threshold",
        real(&Case::interface, &InterfaceParams::slip_threshold, kPositive)},
-      {"interface", "contacts", "[{site = [ix, iy], v_star = ...}], replaces random placement",
-       read_contacts},
-      {"drive", "velocity", "v [m/s]", real(&Case::drive, &DriveParams::velocity, kNonNegative)},
-      {"run", "t_end", "[s]", real(&Case::run, &RunParams::t_end, kPositive)},
-      {"run", "average_from", "start of the friction average [s]",
-       real(&Case::run, &RunParams::average_from, kNonNegative)},
-      {"run", "initial", "rest or sliding",
+      {"interface", "contacts", read_contacts},
+      {"drive", "velocity", real(&Case::drive, &DriveParams::velocity, kNonNegative)},
+      {"run", "t_end", real(&Case::run, &RunParams::t_end, kPositive)},
+      {"run", "average_from", real(&Case::run, &RunParams::average_from, kNonNegative)},
+      {"run", "initial",
        choice(&Case::run, &RunParams::initial, InitialState::rest, InitialState::sliding)},
-      {"run", "checkpoint_every", "[s] simulated time between checkpoints (0: none)",
-       real(&Case::run, &RunParams::checkpoint_every, kNonNegative)},
-      {"solver", "method", "time integrator",
-       choice(&Case::solver, &SolverParams::method, Method::automatic, Method::imex,
-              Method::dirk, Method::bdf, Method::erk, Method::rk4)},
-      {"solver", "linear_solver", "dirk and bdf: fft (exact stage solves) or klu (Newton)",
+      {"run", "checkpoint_every", real(&Case::run, &RunParams::checkpoint_every, kNonNegative)},
+      {"solver", "method",
+       choice(&Case::solver, &SolverParams::method, Method::automatic, Method::imex, Method::dirk,
+              Method::bdf, Method::erk, Method::rk4)},
+      {"solver", "linear_solver",
        choice(&Case::solver, &SolverParams::linear_solver, LinearSolver::automatic,
               LinearSolver::fft, LinearSolver::klu)},
-      {"solver", "order", "method order (0: the method's default)",
-       integer(&Case::solver, &SolverParams::order, 0)},
-      {"solver", "step", "fixed step [s] (0: adaptive)",
-       real(&Case::solver, &SolverParams::step, kNonNegative)},
-      {"solver", "rtol", "relative tolerance", real(&Case::solver, &SolverParams::rtol, kPositive)},
-      {"solver", "atol_displacement", "[m]",
+      {"solver", "order", integer(&Case::solver, &SolverParams::order, 0)},
+      {"solver", "step", real(&Case::solver, &SolverParams::step, kNonNegative)},
+      {"solver", "rtol", real(&Case::solver, &SolverParams::rtol, kPositive)},
+      {"solver", "atol_displacement",
        real(&Case::solver, &SolverParams::atol_displacement, kPositive)},
-      {"solver", "atol_velocity", "[m/s]",
-       real(&Case::solver, &SolverParams::atol_velocity, kPositive)},
-      {"solver", "threads", "OpenMP threads for the lattice forces (1: serial)",
-       integer(&Case::solver, &SolverParams::threads, 1)},
-      {"solver", "max_steps", "over the whole run",
-       integer(&Case::solver, &SolverParams::max_steps, 1)},
-      {"solver", "audit_bound", "largest accepted |energy residual| (default 100 x rtol)",
-       real(&Case::solver, &SolverParams::audit_bound, kPositive)},
-      {"output", "dir", "relative to the case file", read_dir},
-      {"output", "interval", "[s] between output rows",
-       real(&Case::output, &OutputParams::interval, kPositive)},
-      {"output", "traces", "\"all\", \"none\" or [contact ids]",
+      {"solver", "atol_velocity", real(&Case::solver, &SolverParams::atol_velocity, kPositive)},
+      {"solver", "threads", integer(&Case::solver, &SolverParams::threads, 1)},
+      {"solver", "max_steps", integer(&Case::solver, &SolverParams::max_steps, 1)},
+      {"solver", "audit_bound", real(&Case::solver, &SolverParams::audit_bound, kPositive)},
+      {"output", "dir", read_dir},
+      {"output", "interval", real(&Case::output, &OutputParams::interval, kPositive)},
+      {"output", "traces",
        contact_selection(&OutputParams::traces, &OutputParams::trace_ids, &Reader::trace_ids)},
-      {"output", "events", "\"all\", \"none\" or [contact ids] whose stick/slip is located",
+      {"output", "events",
        contact_selection(&OutputParams::events, &OutputParams::event_ids, &Reader::event_ids)},
-      {"output", "steps", "write steps.csv (every accepted step)", boolean(&OutputParams::steps)},
-      {"output", "final_state", "write final_state.csv (every node's u and w at t_end)",
-       boolean(&OutputParams::final_state)},
-      {"output", "signals",
-       "write signals.csv (block velocity and acoustic signal at every output time)",
-       boolean(&OutputParams::signals)},
+      {"output", "steps", boolean(&OutputParams::steps)},
+      {"output", "final_state", boolean(&OutputParams::final_state)},
+      {"output", "signals", boolean(&OutputParams::signals)},
   };
   return entries;
 }
@@ -736,11 +714,11 @@ void check_consistency(const Reader& r, const Case& c) {
                         : s.method == Method::rk4  ? 4
                                                    : 2;
   if (s.order != 0 && (s.order < min_order || s.order > max_order))
-    r.fail_first({{"solver.order", "must be 0 (default) or in [" + std::to_string(min_order) +
-                                       ", " + std::to_string(max_order) + "] for method = \"" +
-                                       to_string(c.solver.method) + "\", got " +
-                                       std::to_string(s.order)},
-                  {"solver.method", "does not offer order " + std::to_string(s.order)}});
+    r.fail_first(
+        {{"solver.order", "must be 0 (default) or in [" + std::to_string(min_order) + ", " +
+                              std::to_string(max_order) + "] for method = \"" +
+                              to_string(c.solver.method) + "\", got " + std::to_string(s.order)},
+         {"solver.method", "does not offer order " + std::to_string(s.order)}});
 }
 
 }  // namespace
