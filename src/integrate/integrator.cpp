@@ -24,19 +24,6 @@ std::vector<double> absolute_tolerances(const System& system, const SolverParams
   return atol;
 }
 
-nlohmann::json to_json(const SolverStats& s) {
-  return {{"steps", s.steps},
-          {"step_attempts", s.step_attempts},
-          {"rhs_explicit", s.rhs_explicit},
-          {"rhs_implicit", s.rhs_implicit},
-          {"newton_iterations", s.newton_iterations},
-          {"convergence_failures", s.convergence_failures},
-          {"linear_setups", s.linear_setups},
-          {"jacobian_evaluations", s.jacobian_evaluations},
-          {"error_test_failures", s.error_test_failures},
-          {"root_evaluations", s.root_evaluations},
-          {"last_step", s.last_step}};
-}
 
 MethodSetup method_setup(const SolverParams& solver) {
   const bool klu = solver.linear_solver == LinearSolver::klu;

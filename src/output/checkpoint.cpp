@@ -10,25 +10,6 @@ namespace {
 
 constexpr const char* kMagic = "stickslip-checkpoint 1";
 
-nlohmann::json stats_to_json(const SolverStats& s) {
-  return to_json(s);
-}
-
-SolverStats stats_from_json(const nlohmann::json& j) {
-  SolverStats s;
-  s.steps = j.at("steps");
-  s.step_attempts = j.at("step_attempts");
-  s.rhs_explicit = j.at("rhs_explicit");
-  s.rhs_implicit = j.at("rhs_implicit");
-  s.newton_iterations = j.at("newton_iterations");
-  s.convergence_failures = j.at("convergence_failures");
-  s.linear_setups = j.at("linear_setups");
-  s.jacobian_evaluations = j.at("jacobian_evaluations");
-  s.error_test_failures = j.at("error_test_failures");
-  s.root_evaluations = j.at("root_evaluations");
-  s.last_step = j.at("last_step");
-  return s;
-}
 
 }  // namespace
 
@@ -58,23 +39,18 @@ nlohmann::json restart_identity(const nlohmann::json& case_json) {
 // Layout: a magic line, one line of JSON (everything but the state), then the
 // state as raw doubles; the state's length is in the JSON.
 void write_checkpoint(const std::filesystem::path& dir, const Checkpoint& c) {
-  const auto file = dir / kCheckpointFile;
-  const auto tmp = dir / (std::string(kCheckpointFile) + ".tmp");
   const nlohmann::json header = {{"t", c.t},
                                  {"output_index", c.output_index},
                                  {"impulse_at_average", c.impulse_at_average},
                                  {"state_size", c.state.size()},
-                                 {"stats", stats_to_json(c.stats)},
+                                 {"stats", c.stats},
                                  {"case", c.case_json},
                                  {"git_commit", c.git_commit}};
-  {
-    std::ofstream out(tmp, std::ios::binary);
+  write_atomically(dir / kCheckpointFile, [&](std::ostream& out) {
     out << kMagic << '\n' << header.dump() << '\n';
     out.write(reinterpret_cast<const char*>(c.state.data()),
               static_cast<std::streamsize>(c.state.size() * sizeof(double)));
-    if (!out.flush()) throw OutputError(tmp.string() + ": cannot write checkpoint");
-  }
-  std::filesystem::rename(tmp, file);
+  });
 }
 
 Checkpoint read_checkpoint(const std::filesystem::path& dir) {
@@ -95,7 +71,7 @@ Checkpoint read_checkpoint(const std::filesystem::path& dir) {
                                ? std::nan("")
                                : h.at("impulse_at_average").get<double>();
     c.state.resize(h.at("state_size").get<std::size_t>());
-    c.stats = stats_from_json(h.at("stats"));
+    c.stats = h.at("stats").get<SolverStats>();
     c.case_json = h.at("case");
     c.git_commit = h.at("git_commit");
   } catch (const nlohmann::json::exception& e) {

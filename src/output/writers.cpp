@@ -1,5 +1,7 @@
 #include "stickslip/output/writers.hpp"
 
+#include <unistd.h>
+
 #include <cstdlib>
 #include <system_error>
 
@@ -62,13 +64,7 @@ void keep_rows_up_to(const std::filesystem::path& file, double t) {
     kept += line + '\n';
   }
   in.close();
-  const auto tmp = std::filesystem::path(file.string() + ".tmp");
-  {
-    std::ofstream out(tmp);
-    out << kept;
-    if (!out.flush()) throw OutputError(tmp.string() + ": write failed");
-  }
-  std::filesystem::rename(tmp, file);
+  write_atomically(file, [&](std::ostream& out) { out << kept; });
 }
 
 void CsvWriter::row(double t, std::span<const double> values) {
@@ -81,16 +77,22 @@ void CsvWriter::row(double t, std::span<const double> values) {
   out_ << '\n';
 }
 
-void write_json_atomically(const std::filesystem::path& file, const nlohmann::json& value) {
-  const auto tmp = std::filesystem::path(file.string() + ".tmp");
+void write_atomically(const std::filesystem::path& file,
+                      const std::function<void(std::ostream&)>& write) {
+  const auto tmp = std::filesystem::path(file.string() + "." + std::to_string(getpid()) + ".tmp");
   {
-    std::ofstream out(tmp);
+    std::ofstream out(tmp, std::ios::binary);
     if (!out) throw OutputError(tmp.string() + ": cannot open for writing");
-    out << value.dump(2) << '\n';
-    out.flush();
-    if (!out) throw OutputError(tmp.string() + ": write failed");
+    write(out);
+    if (!out.flush()) throw OutputError(tmp.string() + ": write failed");
   }
-  std::filesystem::rename(tmp, file);
+  std::error_code ec;
+  std::filesystem::rename(tmp, file, ec);
+  if (ec) throw OutputError(file.string() + ": cannot replace: " + ec.message());
+}
+
+void write_json_atomically(const std::filesystem::path& file, const nlohmann::json& value) {
+  write_atomically(file, [&](std::ostream& out) { out << value.dump(2) << '\n'; });
 }
 
 }  // namespace stickslip

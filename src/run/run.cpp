@@ -470,7 +470,7 @@ RunResult run_case(const Case& c, const RunOptions& options) {
       {"energy_audit_bound", audit_bound},
       {"steady_sliding_mu", system.steady_sliding_mu()},
       {"solver", solver_description},
-      {"solver_stats", to_json(result.stats)},
+      {"solver_stats", result.stats},
       {"provenance", {{"git_commit", kGitCommit}, {"sundials_version", SUNDIALS_VERSION}}},
       {"case", to_json(c)},
   };

@@ -75,17 +75,6 @@ std::string whole_cycle_mu(const nlohmann::json& summary) {
   return it != summary.end() && it->is_object() ? number((*it)["mu"]) : std::string();
 }
 
-void write_atomically(const fs::path& file, const std::string& text) {
-  // Shards of a job array may write the tables at the same moment: each its own
-  // temporary, the last rename wins, and every version is whole.
-  const fs::path tmp = file.string() + "." + std::to_string(getpid()) + ".tmp";
-  {
-    std::ofstream out(tmp);
-    out << text;
-    if (!out) throw OutputError(tmp.string() + ": cannot write");
-  }
-  fs::rename(tmp, file);
-}
 
 // Starts `stickslip run` for one point, its output in <dir>/run.log.
 pid_t spawn_point(const Sweep& sweep, const SweepPoint& p, const fs::path& dir,
@@ -228,7 +217,7 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
           << number(st["rhs_implicit"]) << ',' << number(s["wall_seconds"]) << ','
           << s["provenance"]["git_commit"].get<std::string>() << ",\n";
   }
-  write_atomically(out_dir / "sweep.csv", table.str());
+  write_atomically(out_dir / "sweep.csv", [&](std::ostream& out) { out << table.str(); });
 
   // μ over `average_over` for every combination of the other axes.
   std::size_t avg_axis = sweep.axes.size();
@@ -285,7 +274,7 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
             // Only when every finished point has it: never a mean over fewer points than count.
             << (g.mu_cycles.size() == g.mu.size() ? statistics(g.mu_cycles) : ",,") << '\n';
   }
-  write_atomically(out_dir / "sweep_summary.csv", summary.str());
+  write_atomically(out_dir / "sweep_summary.csv", [&](std::ostream& out) { out << summary.str(); });
   return finished;
 }
 

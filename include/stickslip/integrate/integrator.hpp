@@ -28,7 +28,11 @@ struct SolverStats {
   double last_step = 0.0;
 };
 
-nlohmann::json to_json(const SolverStats& s);
+// JSON with one field per member, both ways (summary.json, checkpoints).
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(SolverStats, steps, step_attempts, rhs_explicit, rhs_implicit,
+                                   newton_iterations, convergence_failures, linear_setups,
+                                   jacobian_evaluations, error_test_failures, root_evaluations,
+                                   last_step)
 
 // One accepted step: where it ended, its size, and the weighted RMS norm of
 // its local error estimate (≤ 1 for an accepted adaptive step; NaN where the

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <span>
@@ -57,6 +58,11 @@ class CsvWriter {
 // header: a restart continues from its checkpoint without duplicated rows.
 void keep_rows_up_to(const std::filesystem::path& file, double t);
 
+// Writes `file` whole or not at all: `write` fills a temporary file (named
+// for this process, so concurrent writers never share one), which then
+// replaces `file`. OutputError if it cannot be written.
+void write_atomically(const std::filesystem::path& file,
+                      const std::function<void(std::ostream&)>& write);
 void write_json_atomically(const std::filesystem::path& file, const nlohmann::json& value);
 
 }  // namespace stickslip
