@@ -13,7 +13,7 @@
 
 #include "stickslip/case/reader.hpp"
 #include "stickslip/sweep/sweep.hpp"
-#include "toml_text.hpp"
+#include "../case/toml_text.hpp"
 
 namespace stickslip {
 namespace {
