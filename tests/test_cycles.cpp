@@ -1,8 +1,8 @@
 // The whole-cycle mean of a friction signal, on signals whose mean over whole
 // cycles is known exactly: a sawtooth (the block-scale stick-slip's shape), a
 // sine, a constant.
-#include <catch2/catch.hpp>
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <stdexcept>
 #include <vector>
@@ -42,7 +42,8 @@ double plain_mean(const Signal& s, double t_from) {
 
 }  // namespace
 
-TEST_CASE("sawtooth: whole cycles give (lo + hi) / 2 where the window is biased", "[analysis][cycles]") {
+TEST_CASE("sawtooth: whole cycles give (lo + hi) / 2 where the window is biased",
+          "[analysis][cycles]") {
   // 4.9 ms period, sampled every 10 µs, window [10, 30] ms: 4.08 cycles.
   const double T = 4.9e-3, lo = 2.0, hi = 6.0, dt = 1e-5;
   double worst_window_bias = 0;

@@ -71,8 +71,7 @@ double worst_entry_error(const System& s, const std::vector<double>& y, const Sp
     yp[j] = ym[j] = y[j];
     for (std::size_t i = 0; i < rows; ++i) {
       const double fd = (fp[i] - fm[i]) / (2 * h), entry = dense[i * size + j];
-      const double rounding =
-          8 * eps * (terms[i] + std::max(std::abs(fp[i]), std::abs(fm[i]))) / h;
+      const double rounding = 8 * eps * (terms[i] + std::max(std::abs(fp[i]), std::abs(fm[i]))) / h;
       const double tolerance = 1e-5 * std::max(std::abs(entry), std::abs(fd)) + rounding;
       worst = std::max(worst, std::abs(fd - entry) / tolerance);
     }

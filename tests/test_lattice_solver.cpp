@@ -47,8 +47,10 @@ SparseMatrix velocity_matrix(const System& s, double gamma) {
   for (std::int64_t r = n3; r < 2 * n3; ++r)
     for (auto k = jac.row_start[r]; k < jac.row_start[r + 1]; ++k) {
       const std::int64_t col = jac.column[k];
-      if (col < n3) t.emplace_back(r - n3, col, -gamma * gamma * jac.value[k]);
-      else if (col < 2 * n3) t.emplace_back(r - n3, col - n3, -gamma * jac.value[k]);
+      if (col < n3)
+        t.emplace_back(r - n3, col, -gamma * gamma * jac.value[k]);
+      else if (col < 2 * n3)
+        t.emplace_back(r - n3, col - n3, -gamma * jac.value[k]);
     }
   SparseMatrix m(n3, n3);
   m.setFromTriplets(t.begin(), t.end());
@@ -152,9 +154,10 @@ TEST_CASE("the lattice solve of a stage agrees with a direct sparse solve of I -
   }
 }
 
-TEST_CASE("the bottom layer's Green's function is M^-1 between bottom nodes, symmetric and "
-          "translation-invariant",
-          "[lattice_solver]") {
+TEST_CASE(
+    "the bottom layer's Green's function is M^-1 between bottom nodes, symmetric and "
+    "translation-invariant",
+    "[lattice_solver]") {
   for (const Shape& shape : kShapes) {
     const System s = make_system(shape.nx, shape.ny, shape.nz, {});
     LatticeSolver solver(s);

@@ -1,13 +1,13 @@
 // The solver suite: convergence order of each method, events located by root
 // finding against a dense fixed-step solution, adaptive against fixed step,
 // and no root functions when no events are asked for.
-#include <catch2/catch.hpp>
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "stickslip/analysis/compare.hpp"
 #include "stickslip/integrate/integrator.hpp"
@@ -321,8 +321,9 @@ TEST_CASE("recording steps.csv does not change a run", "[slow][methods][steps]")
     Case c;
     Method m;
   };
-  for (const auto& [name, base, m] : {Run{"many", many, Method::imex}, Run{"quiet", quiet, Method::bdf},
-                                      Run{"pair", pair, Method::imex}}) {
+  for (const auto& [name, base, m] :
+       {Run{"many", many, Method::imex}, Run{"quiet", quiet, Method::bdf},
+        Run{"pair", pair, Method::imex}}) {
     Case c = base;
     c.solver.method = m;
     const std::string tag = std::string(name) + "_" + to_string(m);
@@ -344,7 +345,8 @@ TEST_CASE("recording steps.csv does not change a run", "[slow][methods][steps]")
             fs::exists(dir.path / (tag + "_on") / file));
       CHECK(slurp(dir.path / (tag + "_off") / file) == slurp(dir.path / (tag + "_on") / file));
     }
-    if (std::string(name) == "pair") CHECK(slurp(dir.path / (tag + "_on") / "events.csv").size() > 40);
+    if (std::string(name) == "pair")
+      CHECK(slurp(dir.path / (tag + "_on") / "events.csv").size() > 40);
   }
 }
 
@@ -367,8 +369,8 @@ TEST_CASE("final_state.csv holds every node's state at t_end, only when asked fo
   CHECK(line == "t,ix,iy,iz,u_x,u_y,u_z,w_x,w_y,w_z");
   double t = 0.0, ix, iy, iz, u[3], w[3];
   while (std::getline(in, line)) {
-    REQUIRE(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf", &t, &ix, &iy,
-                        &iz, &u[0], &u[1], &u[2], &w[0], &w[1], &w[2]) == 10);
+    REQUIRE(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf", &t, &ix, &iy, &iz,
+                        &u[0], &u[1], &u[2], &w[0], &w[1], &w[2]) == 10);
     const std::int64_t n = s.node(int(ix), int(iy), int(iz));
     ++seen[static_cast<std::size_t>(n)];
     for (int k = 0; k < 3; ++k) {
@@ -389,9 +391,10 @@ TEST_CASE("final_state.csv holds every node's state at t_end, only when asked fo
   CHECK(s.friction_force(t, y) == Approx(f_row).epsilon(1e-8));
 }
 
-TEST_CASE("method = auto runs bdf where no contact can stick-slip, imex where some can or at a "
-          "fixed step, and says why; an explicit method is used as given",
-          "[methods][auto]") {
+TEST_CASE(
+    "method = auto runs bdf where no contact can stick-slip, imex where some can or at a "
+    "fixed step, and says why; an explicit method is used as given",
+    "[methods][auto]") {
   Case c = short_smooth_run(1e-6);  // v* = 2e-3, 3e-3, 5e-3 against v = 1e-3
   TempDir dir("stickslip_test_auto");
   REQUIRE(c.solver.method == Method::automatic);  // the default
@@ -437,7 +440,8 @@ TEST_CASE("dirk and bdf with KLU ask whether to stop every 10 steps, the others 
   };
   for (auto [m, linear_solver, expected] :
        {Trial{Method::bdf, LinearSolver::klu, 10}, Trial{Method::dirk, LinearSolver::klu, 10},
-        Trial{Method::bdf, LinearSolver::fft, 500}, Trial{Method::imex, LinearSolver::automatic, 500}}) {
+        Trial{Method::bdf, LinearSolver::fft, 500},
+        Trial{Method::imex, LinearSolver::automatic, 500}}) {
     c.solver.method = m;
     c.solver.linear_solver = linear_solver;
     std::vector<double> y(static_cast<std::size_t>(s.size()));

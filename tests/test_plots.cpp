@@ -1,8 +1,8 @@
 // The plot scripts (plots/*.py, run with /usr/bin/python3) on tiny outputs:
 // each writes a PNG and a PDF, and the numbers it says it plotted are the
 // ones in the outputs it read.
-#include <catch2/catch.hpp>
 #include <array>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -68,7 +68,8 @@ void check_png(const fs::path& png) {
 
 }  // namespace
 
-TEST_CASE("fig7.py, fig9.py and epsilon.py plot the sweep's mean mu per coverage", "[slow][plots]") {
+TEST_CASE("fig7.py, fig9.py and epsilon.py plot the sweep's mean mu per coverage",
+          "[slow][plots]") {
   Sandbox box("stickslip_plots_");
   box.write("base.toml", kTinyBase);
   box.write("s.toml",
@@ -272,8 +273,10 @@ TEST_CASE("spectra.py: a sine's line at its frequency with its power (Parseval)"
   }
 }
 
-TEST_CASE("spectra.py on the Fig. 10b pair: lines at contact 0's slip rate, the block's "
-          "resonance", "[slow][plots][spectra]") {
+TEST_CASE(
+    "spectra.py on the Fig. 10b pair: lines at contact 0's slip rate, the block's "
+    "resonance",
+    "[slow][plots][spectra]") {
   Sandbox box("stickslip_plots_");
   const auto run = box.run({"run", std::string(STICKSLIP_SOURCE_DIR) + "/cases/fig10b.toml",
                             "--out", "pair", "--set", "output.signals=true", "--quiet"});

@@ -3,8 +3,8 @@
 // a restart with another case is refused.
 #include <sys/wait.h>
 
-#include <catch2/catch.hpp>
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -74,7 +74,8 @@ std::vector<std::vector<double>> signal_rows(const fs::path& csv) {
 
 }  // namespace
 
-TEST_CASE("a run stopped by SIGTERM and restarted agrees with an uninterrupted one", "[slow][restart]") {
+TEST_CASE("a run stopped by SIGTERM and restarted agrees with an uninterrupted one",
+          "[slow][restart]") {
   const fs::path box = fs::temp_directory_path() / "stickslip_test_restart";
   fs::remove_all(box);
   fs::create_directories(box);
@@ -153,11 +154,11 @@ TEST_CASE("SIGTERM inside a long output interval stops the run at once and it re
 
   REQUIRE(shell("cd " + dir + " && " + exe + " run two.toml --out full --quiet" + sets +
                 " >/dev/null") == 0);
-  const int stopped = shell("cd " + dir + " && (" + exe + " run two.toml --out part --quiet" +
-                            sets +
-                            " >/dev/null 2>stop.txt & pid=$!; "
-                            "while [ ! -f part/friction.csv ]; do sleep 0.02; done; sleep 0.3; "
-                            "kill -TERM $pid; wait $pid)");
+  const int stopped =
+      shell("cd " + dir + " && (" + exe + " run two.toml --out part --quiet" + sets +
+            " >/dev/null 2>stop.txt & pid=$!; "
+            "while [ ! -f part/friction.csv ]; do sleep 0.02; done; sleep 0.3; "
+            "kill -TERM $pid; wait $pid)");
   REQUIRE(stopped == 143);
   std::ifstream note(box / "stop.txt");
   const std::string message((std::istreambuf_iterator<char>(note)), {});
@@ -172,8 +173,7 @@ TEST_CASE("SIGTERM inside a long output interval stops the run at once and it re
 
   REQUIRE(shell("cd " + dir + " && " + exe + " run two.toml --restart part --quiet" + sets +
                 " >/dev/null") == 0);
-  CHECK(first_column(box / "part" / "friction.csv") ==
-        first_column(box / "full" / "friction.csv"));
+  CHECK(first_column(box / "part" / "friction.csv") == first_column(box / "full" / "friction.csv"));
   const CompareResult r = compare_runs(box / "full", box / "part", 2e-2);
   INFO(to_json(r).dump(1));
   CHECK(r.mu_rel_diff < 1e-5);

@@ -181,8 +181,7 @@ TEST_CASE("mpirun -n 2 gives the same sweep.csv as --jobs 2", "[sweep][mpi]") {
   const std::string cmd = "cd " + test::quote(box.work.string()) +
                           " && OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 " +
                           STICKSLIP_MPIEXEC + " -n 2 --oversubscribe " +
-                          test::quote(STICKSLIP_EXE) +
-                          " sweep tiny.toml --out mpi >mpi.txt 2>&1";
+                          test::quote(STICKSLIP_EXE) + " sweep tiny.toml --out mpi >mpi.txt 2>&1";
   const int status = std::system(cmd.c_str());
   INFO(slurp(box.work / "mpi.txt"));
   REQUIRE(WIFEXITED(status));
@@ -198,7 +197,8 @@ TEST_CASE("mpirun -n 2 gives the same sweep.csv as --jobs 2", "[sweep][mpi]") {
 #endif
 }
 
-TEST_CASE("bad sweep files are refused: exit 2, file, line and key, nothing run", "[sweep][bad_input]") {
+TEST_CASE("bad sweep files are refused: exit 2, file, line and key, nothing run",
+          "[sweep][bad_input]") {
   Sandbox box;
   box.write("base.toml", kBase);
   struct Row {
@@ -210,7 +210,8 @@ TEST_CASE("bad sweep files are refused: exit 2, file, line and key, nothing run"
       {"a sweep key that does not exist",
        "[sweep]\ncase = \"base.toml\"\n[vary]\ninterface.covrage = [0.2, 0.5]\n",
        {"s.toml:4: vary.interface.covrage: unknown key 'covrage' (did you mean 'coverage'?)"}},
-      {"a section that does not exist", "[sweep]\ncase = \"base.toml\"\n[vary]\nlatice.nx = [4]\n",
+      {"a section that does not exist",
+       "[sweep]\ncase = \"base.toml\"\n[vary]\nlatice.nx = [4]\n",
        {"s.toml:4: vary.latice.nx: unknown section 'latice' (did you mean 'lattice'?)"}},
       {"a value the case refuses",
        "[sweep]\ncase = \"base.toml\"\n[vary]\ninterface.coverage = [0.2,\n  1.5]\n",
@@ -219,15 +220,20 @@ TEST_CASE("bad sweep files are refused: exit 2, file, line and key, nothing run"
        "[sweep]\ncase = \"base.toml\"\n[vary]\nrun.t_end = [2e-4, 4e-4]\nrun.average_from = [1e-4, "
        "2.5e-4]\n",
        {"s.toml: point t_end=0.0002_average_from=0.00025", "average_from"}},
-      {"no values", "[sweep]\ncase = \"base.toml\"\n[vary]\ninterface.seed = []\n",
+      {"no values",
+       "[sweep]\ncase = \"base.toml\"\n[vary]\ninterface.seed = []\n",
        {"s.toml:4: vary.interface.seed: expected a non-empty list of values"}},
-      {"a repeated value", "[sweep]\ncase = \"base.toml\"\n[vary]\ninterface.seed = [1, 2, 1]\n",
+      {"a repeated value",
+       "[sweep]\ncase = \"base.toml\"\n[vary]\ninterface.seed = [1, 2, 1]\n",
        {"s.toml:4: vary.interface.seed: repeats the value 1"}},
-      {"no base case", "[sweep]\n[vary]\ninterface.seed = [1]\n",
+      {"no base case",
+       "[sweep]\n[vary]\ninterface.seed = [1]\n",
        {"s.toml:1: sweep: missing case"}},
-      {"a missing base case", "[sweep]\ncase = \"nope.toml\"\n[vary]\ninterface.seed = [1]\n",
+      {"a missing base case",
+       "[sweep]\ncase = \"nope.toml\"\n[vary]\ninterface.seed = [1]\n",
        {"nope.toml: cannot read case file", "(base case of s.toml)"}},
-      {"output.dir swept", "[sweep]\ncase = \"base.toml\"\n[vary]\noutput.dir = [\"a\", \"b\"]\n",
+      {"output.dir swept",
+       "[sweep]\ncase = \"base.toml\"\n[vary]\noutput.dir = [\"a\", \"b\"]\n",
        {"s.toml:4: vary.output.dir: each point writes to its own directory"}},
       {"average_over not a key",
        "[sweep]\ncase = \"base.toml\"\naverage_over = \"interface.sed\"\n[vary]\ninterface.seed = "
@@ -335,7 +341,8 @@ interval = 1e-5
     CHECK_THAT(log, Catch::Contains("interrupted at t = ") && Catch::Contains("mu = "));
   }
   // The continued points agree with the uninterrupted sweep to the tolerance.
-  const auto whole = csv(box.work / "whole" / "sweep.csv"), part = csv(box.work / "part" / "sweep.csv");
+  const auto whole = csv(box.work / "whole" / "sweep.csv"),
+             part = csv(box.work / "part" / "sweep.csv");
   REQUIRE(whole.size() == 3);
   REQUIRE(part.size() == 3);
   const auto mu = column(whole, "mu");
@@ -360,7 +367,8 @@ TEST_CASE("a sweep split into job-array shards makes the same tables as one run"
 
   // The cluster script, as Slurm starts it for --array=1-3 (task ids 1, 2, 3):
   // shard 0 runs points 0 and 3, shards 1 and 2 one point each.
-  const std::string script = std::string(STICKSLIP_SOURCE_DIR) + "/scripts/cluster/sweep-array.sbatch";
+  const std::string script =
+      std::string(STICKSLIP_SOURCE_DIR) + "/scripts/cluster/sweep-array.sbatch";
   const std::vector<std::string> mine = {"coverage=0.2_seed=1", "coverage=0.2_seed=2",
                                          "coverage=0.5_seed=1"};
   for (int task = 1; task <= 3; ++task) {
@@ -368,8 +376,9 @@ TEST_CASE("a sweep split into job-array shards makes the same tables as one run"
     const std::string cmd = "cd " + test::quote(box.work.string()) +
                             " && SLURM_ARRAY_TASK_ID=" + std::to_string(task) +
                             " SLURM_ARRAY_TASK_MIN=1 SLURM_ARRAY_TASK_MAX=3"
-                            " SLURM_ARRAY_TASK_COUNT=3 STICKSLIP=" + test::quote(STICKSLIP_EXE) +
-                            " " + test::quote(script) + " tiny.toml --out shards >" + log + " 2>&1";
+                            " SLURM_ARRAY_TASK_COUNT=3 STICKSLIP=" +
+                            test::quote(STICKSLIP_EXE) + " " + test::quote(script) +
+                            " tiny.toml --out shards >" + log + " 2>&1";
     const int status = std::system(cmd.c_str());
     const std::string out = slurp(box.work / log);
     INFO(out);
@@ -381,7 +390,8 @@ TEST_CASE("a sweep split into job-array shards makes the same tables as one run"
     if (task < 3) CHECK_FALSE(fs::exists(box.work / "shards" / mine[task]));
   }
   CHECK_THAT(slurp(box.work / "shard1.txt"), Catch::Contains("coverage=0.5_seed=2: mu ="));
-  CHECK_THAT(slurp(box.work / "shard3.txt"), Catch::Contains("4 of 4 points of the sweep finished"));
+  CHECK_THAT(slurp(box.work / "shard3.txt"),
+             Catch::Contains("4 of 4 points of the sweep finished"));
 
   auto a = csv(box.work / "whole" / "sweep.csv"), b = csv(box.work / "shards" / "sweep.csv");
   const auto wall = column(a, "wall_seconds");
@@ -401,14 +411,16 @@ TEST_CASE("a sweep split into job-array shards makes the same tables as one run"
     const auto r = box.run({"sweep", "tiny.toml", "--out", "bad", "--shard", bad});
     INFO(bad);
     CHECK(r.code == 2);
-    CHECK_THAT(r.err, Catch::Contains(std::string("--shard ") + bad) && Catch::Contains("0 <= i < n"));
+    CHECK_THAT(r.err,
+               Catch::Contains(std::string("--shard ") + bad) && Catch::Contains("0 <= i < n"));
   }
   CHECK_FALSE(fs::exists(box.work / "bad" / "coverage=0.2_seed=1"));
   const std::string stepped = "cd " + test::quote(box.work.string()) +
                               " && SLURM_ARRAY_TASK_ID=2 SLURM_ARRAY_TASK_MIN=0 "
                               "SLURM_ARRAY_TASK_MAX=4 SLURM_ARRAY_TASK_STEP=2 "
-                              "SLURM_ARRAY_TASK_COUNT=3 STICKSLIP=" + test::quote(STICKSLIP_EXE) +
-                              " " + test::quote(script) + " tiny.toml --out stepped >stepped.txt 2>&1";
+                              "SLURM_ARRAY_TASK_COUNT=3 STICKSLIP=" +
+                              test::quote(STICKSLIP_EXE) + " " + test::quote(script) +
+                              " tiny.toml --out stepped >stepped.txt 2>&1";
   const int status = std::system(stepped.c_str());
   REQUIRE(WIFEXITED(status));
   CHECK(WEXITSTATUS(status) == 2);

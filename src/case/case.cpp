@@ -1,7 +1,6 @@
 #include "stickslip/case/case.hpp"
 
 #include <algorithm>
-
 #include <nlohmann/json.hpp>
 
 namespace stickslip {

@@ -129,8 +129,9 @@ int sweep_shard(const stickslip::Sweep& sweep, const std::vector<stickslip::Swee
                 stickslip::SweepOptions options, stickslip::Shard shard, int jobs) {
   using namespace stickslip;
   if (std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE") || std::getenv("PMIX_RANK"))
-    throw CaseError("--shard splits the points between separate jobs; under mpirun the ranks "
-                    "already share them: use one or the other");
+    throw CaseError(
+        "--shard splits the points between separate jobs; under mpirun the ranks "
+        "already share them: use one or the other");
   options.rank = shard.index;
   options.ranks = shard.count;
   options.jobs = jobs > 0 ? jobs : 1;
@@ -146,11 +147,11 @@ int sweep_shard(const stickslip::Sweep& sweep, const std::vector<stickslip::Swee
     std::fprintf(stderr, "shard interrupted: run the same command again to continue\n");
     return 128 + outcome.interrupted_by;
   }
-  std::printf("shard %d/%d: %zu of its points ran, %zu failed; %zu of %zu points of the sweep "
-              "finished; tables: %s, %s\n",
-              shard.index, shard.count, outcome.ran, outcome.failed, finished, points.size(),
-              (options.out_dir / "sweep.csv").c_str(),
-              (options.out_dir / "sweep_summary.csv").c_str());
+  std::printf(
+      "shard %d/%d: %zu of its points ran, %zu failed; %zu of %zu points of the sweep "
+      "finished; tables: %s, %s\n",
+      shard.index, shard.count, outcome.ran, outcome.failed, finished, points.size(),
+      (options.out_dir / "sweep.csv").c_str(), (options.out_dir / "sweep_summary.csv").c_str());
   return outcome.failed > 0 ? 1 : 0;
 }
 

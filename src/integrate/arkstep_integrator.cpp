@@ -5,8 +5,8 @@
 #include <sunlinsol/sunlinsol_klu.h>
 
 #include <algorithm>
-#include <functional>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <utility>
 
@@ -80,7 +80,8 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
   } else if (solver.order > 0) {
     check(ARKStepSetOrder(arkode_mem_.get(), solver.order), "ARKStepSetOrder");
   }
-  if (solver.step > 0) check(ARKStepSetFixedStep(arkode_mem_.get(), solver.step), "ARKStepSetFixedStep");
+  if (solver.step > 0)
+    check(ARKStepSetFixedStep(arkode_mem_.get(), solver.step), "ARKStepSetFixedStep");
 
   switch (stages) {
     case StageSolve::none:
@@ -106,8 +107,7 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
       lattice_stages_ = std::make_unique<LatticeStageSolver>(system);
       stage_solver_ = make_exact_stage_solver(
           ctx_, StagePackage::arkstep,
-          std::bind_front(&LatticeStageSolver::solve, lattice_stages_.get()),
-          stage_stats_);
+          std::bind_front(&LatticeStageSolver::solve, lattice_stages_.get()), stage_stats_);
       check(ARKStepSetNonlinearSolver(arkode_mem_.get(), stage_solver_.get()),
             "ARKStepSetNonlinearSolver");
       break;
@@ -261,8 +261,8 @@ nlohmann::json ArkStepIntegrator::description() const {
                       {"order", order},
                       {"stages", bi ? bi->stages : (be ? be->stages : 0)}};
   if (setup_.stages == StageSolve::exact_lattice || setup_.stages == StageSolve::newton_klu)
-    d["linear_solver"] = to_string(setup_.stages == StageSolve::newton_klu ? LinearSolver::klu
-                                                                          : LinearSolver::fft);
+    d["linear_solver"] =
+        to_string(setup_.stages == StageSolve::newton_klu ? LinearSolver::klu : LinearSolver::fft);
   if (solver_.step > 0) {
     d["fixed_step"] = solver_.step;
   } else {

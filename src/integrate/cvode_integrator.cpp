@@ -29,18 +29,20 @@ CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solve
   atol_ = make_serial_vector(absolute_tolerances(system, solver), ctx_);
   check(CVodeSVtolerances(cvode_mem_.get(), solver.rtol, atol_.get()), "CVodeSVtolerances");
   check(CVodeSetStopTime(cvode_mem_.get(), t_stop), "CVodeSetStopTime");
-  check(CVodeSetErrHandlerFn(cvode_mem_.get(), print_solver_message, nullptr), "CVodeSetErrHandlerFn");
+  check(CVodeSetErrHandlerFn(cvode_mem_.get(), print_solver_message, nullptr),
+        "CVodeSetErrHandlerFn");
   check(CVodeSetMaxOrd(cvode_mem_.get(), max_order_), "CVodeSetMaxOrd");
   if (max_order_ >= 3) check(CVodeSetStabLimDet(cvode_mem_.get(), SUNTRUE), "CVodeSetStabLimDet");
 
   if (setup_.stages == StageSolve::exact_lattice) {
-    check(CVodeSetMaxErrTestFails(cvode_mem_.get(), kMaxErrorTestFailures), "CVodeSetMaxErrTestFails");
+    check(CVodeSetMaxErrTestFails(cvode_mem_.get(), kMaxErrorTestFailures),
+          "CVodeSetMaxErrTestFails");
     lattice_stages_ = std::make_unique<LatticeStageSolver>(system);
     stage_solver_ = make_exact_stage_solver(
         ctx_, StagePackage::cvode,
-        std::bind_front(&LatticeStageSolver::solve, lattice_stages_.get()),
-        stage_stats_);
-    check(CVodeSetNonlinearSolver(cvode_mem_.get(), stage_solver_.get()), "CVodeSetNonlinearSolver");
+        std::bind_front(&LatticeStageSolver::solve, lattice_stages_.get()), stage_stats_);
+    check(CVodeSetNonlinearSolver(cvode_mem_.get(), stage_solver_.get()),
+          "CVodeSetNonlinearSolver");
   } else {
     jacobian_ = system.jacobian_pattern(JacobianPart::full);
     matrix_ = make_sparse_matrix(jacobian_, ctx_);
@@ -53,7 +55,8 @@ CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solve
 
   init_stepping(options_.watched_contacts.size());
   if (!roots_.empty())
-    check(CVodeRootInit(cvode_mem_.get(), static_cast<int>(roots_.size()), root_fn), "CVodeRootInit");
+    check(CVodeRootInit(cvode_mem_.get(), static_cast<int>(roots_.size()), root_fn),
+          "CVodeRootInit");
   if (options_.on_step) {
     scratch_error_.reset(N_VClone(y_.get()));
     scratch_weights_.reset(N_VClone(y_.get()));

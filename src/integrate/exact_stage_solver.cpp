@@ -42,16 +42,15 @@ int solve(SUNNonlinearSolver nls, N_Vector, N_Vector correction, N_Vector weight
   if (c.package == StagePackage::arkstep) {
     N_Vector fi = nullptr, sdata = nullptr;
     void* user_data = nullptr;
-    if (ARKStepGetNonlinearSystemData(mem, &t, &predictor, &z, &fi, &gamma, &sdata, &user_data) <
-        0)
+    if (ARKStepGetNonlinearSystemData(mem, &t, &predictor, &z, &fi, &gamma, &sdata, &user_data) < 0)
       return SUN_NLS_MEM_NULL;
     N_VLinearSum(1.0, predictor, 1.0, sdata, z);
   } else {
     N_Vector fn = nullptr, zn1 = nullptr;
     double rl1 = 0.0;
     void* user_data = nullptr;
-    if (CVodeGetNonlinearSystemData(mem, &t, &predictor, &z, &fn, &gamma, &rl1, &zn1,
-                                    &user_data) < 0)
+    if (CVodeGetNonlinearSystemData(mem, &t, &predictor, &z, &fn, &gamma, &rl1, &zn1, &user_data) <
+        0)
       return SUN_NLS_MEM_NULL;
     N_VLinearSum(1.0, predictor, -rl1, zn1, z);
   }

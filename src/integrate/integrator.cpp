@@ -24,7 +24,6 @@ std::vector<double> absolute_tolerances(const System& system, const SolverParams
   return atol;
 }
 
-
 MethodSetup method_setup(const SolverParams& solver) {
   const bool klu = solver.linear_solver == LinearSolver::klu;
   const StageSolve implicit = klu ? StageSolve::newton_klu : StageSolve::exact_lattice;
@@ -35,10 +34,11 @@ MethodSetup method_setup(const SolverParams& solver) {
               "ARKStep IMEX additive Runge-Kutta: lattice explicit, contact forces implicit, each "
               "stage solved exactly contact by contact"};
     case Method::dirk:
-      return {Package::arkstep, implicit, poll,
-              klu ? "ARKStep diagonally implicit Runge-Kutta, Newton with KLU on the sparse Jacobian"
-                  : "ARKStep diagonally implicit Runge-Kutta, each stage solved exactly: lattice "
-                    "by FFT, contacts by Newton on their coupled speeds"};
+      return {
+          Package::arkstep, implicit, poll,
+          klu ? "ARKStep diagonally implicit Runge-Kutta, Newton with KLU on the sparse Jacobian"
+              : "ARKStep diagonally implicit Runge-Kutta, each stage solved exactly: lattice "
+                "by FFT, contacts by Newton on their coupled speeds"};
     case Method::bdf:
       return {Package::cvode, implicit, poll,
               klu ? "CVODE variable-order BDF, Newton with KLU on the sparse Jacobian"
@@ -58,8 +58,9 @@ MethodSetup method_setup(const SolverParams& solver) {
 MethodChoice choose_method(const System& system, const SolverParams& solver) {
   if (solver.method != Method::automatic) return {solver.method, "given"};
   if (solver.step > 0)
-    return {Method::imex, "method = \"auto\" with a fixed step: imex, the cheapest fixed-step "
-                          "method (docs/PERFORMANCE.md)"};
+    return {Method::imex,
+            "method = \"auto\" with a fixed step: imex, the cheapest fixed-step "
+            "method (docs/PERFORMANCE.md)"};
   std::size_t weak = 0;  // contacts that stick-slip at the drive speed
   for (const auto& c : system.contacts())
     if (c.v_star < system.drive_velocity()) ++weak;
@@ -67,9 +68,10 @@ MethodChoice choose_method(const System& system, const SolverParams& solver) {
   // to 2.4e-6 in μ, bdf took 1-7 s on each, dirk up to 54 s and stalled on
   // one (its contacts' Newton failing again and again in the creep).
   if (weak == 0)
-    return {Method::bdf, "method = \"auto\": bdf, since no contact has v* below the drive "
-                         "speed (steady sliding or creep, where its steps grow; "
-                         "docs/PERFORMANCE.md)"};
+    return {Method::bdf,
+            "method = \"auto\": bdf, since no contact has v* below the drive "
+            "speed (steady sliding or creep, where its steps grow; "
+            "docs/PERFORMANCE.md)"};
   return {Method::imex, "method = \"auto\": imex, since " + std::to_string(weak) + " of " +
                             std::to_string(system.contacts().size()) +
                             " contacts have v* below the drive speed and stick-slip, where imex "

@@ -56,9 +56,8 @@ LatticeSolver::LatticeSolver(const System& system)
   green_spectrum_.resize(static_cast<std::size_t>(4 * modes_));
   const fftw_iodim green_dims[2] = {{ny_, 4 * nkx, nx_}, {nx_, 4, 1}};
   const fftw_iodim green_many[1] = {{4, 1, nx_ * ny_}};
-  plans_->green = fftw_plan_guru_dft_c2r(2, green_dims, 1, green_many,
-                                         as_fftw(green_spectrum_.data()), green_.data(),
-                                         FFTW_ESTIMATE);
+  plans_->green = fftw_plan_guru_dft_c2r(
+      2, green_dims, 1, green_many, as_fftw(green_spectrum_.data()), green_.data(), FFTW_ESTIMATE);
   if (!plans_->forward || !plans_->backward || !plans_->green)
     throw std::runtime_error("FFTW could not plan the lattice transforms");
 
@@ -140,7 +139,8 @@ void LatticeSolver::factorize_mode(std::int64_t m) {
   const double g = gamma_, g2 = gamma_ * gamma_;
   for (int iz = 0; iz < nz_; ++iz) {
     const std::size_t at = 9 * (iz + nz_ * m);
-    Block a = Block::Identity() + g * ConstBlockMap(&c_diag_[at]) + g2 * ConstBlockMap(&k_diag_[at]);
+    Block a =
+        Block::Identity() + g * ConstBlockMap(&c_diag_[at]) + g2 * ConstBlockMap(&k_diag_[at]);
     if (iz > 0) {
       const std::size_t below = at - 9;
       a -= ConstBlockMap(&multiplier_[below]) * ConstBlockMap(&upper_[below]);
@@ -159,7 +159,8 @@ void LatticeSolver::factorize_mode(std::int64_t m) {
 void LatticeSolver::solve_mode(std::int64_t m, Complex* x) const {
   const std::size_t first = 9 * nz_ * m;
   for (int iz = 1; iz < nz_; ++iz)
-    Vec3Map(x + 3 * iz) -= ConstBlockMap(&multiplier_[first + 9 * (iz - 1)]) * Vec3Map(x + 3 * (iz - 1));
+    Vec3Map(x + 3 * iz) -=
+        ConstBlockMap(&multiplier_[first + 9 * (iz - 1)]) * Vec3Map(x + 3 * (iz - 1));
   for (int iz = nz_ - 1; iz >= 0; --iz) {
     Eigen::Vector3cd y = Vec3Map(x + 3 * iz);
     if (iz + 1 < nz_) y -= ConstBlockMap(&upper_[first + 9 * iz]) * Vec3Map(x + 3 * (iz + 1));

@@ -94,8 +94,8 @@ long LatticeStageSolver::solve(double t, double gamma, std::span<const double> p
 long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
                                         std::span<const double> weights) {
   constexpr int kMaxIterations = 30;
-  constexpr double kTolerance = 1e-6;   // of the integrator's error weights
-  constexpr double kStagnated = 1e-3;   // accepted if no further progress is possible
+  constexpr double kTolerance = 1e-6;  // of the integrator's error weights
+  constexpr double kStagnated = 1e-3;  // accepted if no further progress is possible
   const double gamma_self = gamma_ * self_green_;
   for (std::size_t i = 0; i < contacts_; ++i)
     predicted_speed_[i] = std::hypot(predictor[contact_w_[i]], predictor[contact_w_[i] + 1]);
@@ -118,8 +118,8 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
 
   // Start from the predictor's contact forces: β = s0 + γ ḡ H a_c(s_pred).
   for (std::size_t i = 0; i < contacts_; ++i) {
-    const auto a = system_.contact_acceleration(
-        i, {predictor[contact_w_[i]], predictor[contact_w_[i] + 1]});
+    const auto a =
+        system_.contact_acceleration(i, {predictor[contact_w_[i]], predictor[contact_w_[i] + 1]});
     trial_(2 * i) = gamma_self * a[0];
     trial_(2 * i + 1) = gamma_self * a[1];
   }

@@ -93,9 +93,9 @@ void System::initial_state(InitialState initial, std::span<double> y) const {
     for (std::int64_t n = 0; n < n_; ++n) y[w_index(n, 0)] = v_;
 }
 
-// Elastic, damping and drive accelerations (MODEL.md §3–5). Faces and cells are visited once each and their
-// forces scattered to both ends, which counts periodic images with their
-// multiplicity on small lattices exactly as §3 defines.
+// Elastic, damping and drive accelerations (MODEL.md §3–5). Faces and cells are visited once each
+// and their forces scattered to both ends, which counts periodic images with their multiplicity on
+// small lattices exactly as §3 defines.
 void System::lattice_accelerations(double t, std::span<const double> u_in,
                                    std::span<const double> w_in, std::span<double> acc_out) const {
   const double* u = u_in.data();
@@ -171,8 +171,8 @@ void System::lattice_accelerations(double t, std::span<const double> u_in,
 void System::add_contact_accelerations(std::span<const double> y, std::span<double> ydot) const {
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const std::int64_t wx = w_index(contact_node_[i], 0);
-    const auto a = stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star,
-                                        y[wx], y[wx + 1]);
+    const auto a = stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_,
+                                                   contacts_[i].v_star, y[wx], y[wx + 1]);
     ydot[wx] += a[0];
     ydot[wx + 1] += a[1];
   }
@@ -411,8 +411,8 @@ double System::contact_dissipation(std::span<const double> y) const {
   double sum = 0.0;
   for (std::size_t i = 0; i < contacts_.size(); ++i) {
     const std::int64_t wx = w_index(contact_node_[i], 0);
-    const auto a = stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star,
-                                        y[wx], y[wx + 1]);
+    const auto a = stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_,
+                                                   contacts_[i].v_star, y[wx], y[wx + 1]);
     sum -= a[0] * y[wx] + a[1] * y[wx + 1];
   }
   return mass_ * sum;
@@ -505,7 +505,7 @@ std::array<double, 2> System::contact_velocity(std::size_t i, std::span<const do
 
 std::array<double, 2> System::contact_acceleration(std::size_t i, std::array<double, 2> s) const {
   return stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star,
-                                        s[0], s[1]);
+                                         s[0], s[1]);
 }
 
 void System::stick_slip_roots(std::span<const double> y, std::span<const int> watched,
@@ -524,8 +524,8 @@ bool System::slipping(std::size_t i, std::span<const double> y) const {
 
 double System::contact_force(std::size_t i, std::span<const double> y) const {
   const std::int64_t wx = w_index(contact_node_[i], 0);
-  const auto a = stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star,
-                                      y[wx], y[wx + 1]);
+  const auto a = stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_,
+                                                 contacts_[i].v_star, y[wx], y[wx + 1]);
   return mass_ * std::hypot(a[0], a[1]);
 }
 

@@ -10,7 +10,6 @@ namespace {
 
 constexpr const char* kMagic = "stickslip-checkpoint 1";
 
-
 }  // namespace
 
 SolverStats& operator+=(SolverStats& a, const SolverStats& b) {

@@ -100,8 +100,8 @@ double travel_time(const System& s, const Contact& a, const Contact& b) {
 
 // friction.csv's t and F_f columns from t_from on (the run's own file, whole
 // across restarts: the cut-back leaves no gap or duplicate).
-void read_friction_series(const std::filesystem::path& file, double t_from,
-                          std::vector<double>& t, std::vector<double>& f) {
+void read_friction_series(const std::filesystem::path& file, double t_from, std::vector<double>& t,
+                          std::vector<double>& f) {
   std::ifstream in(file);
   std::string line;
   std::getline(in, line);  // header
@@ -162,7 +162,8 @@ RunResult run_case(const Case& c, const RunOptions& options) {
     if (resume->git_commit != kGitCommit)
       throw OutputError((dir / kCheckpointFile).string() + ": written by code version " +
                         resume->git_commit + ", this is " + kGitCommit);
-    for (const char* name : {"friction.csv", "traces.csv", "events.csv", "steps.csv", "signals.csv"})
+    for (const char* name :
+         {"friction.csv", "traces.csv", "events.csv", "steps.csv", "signals.csv"})
       keep_rows_up_to(dir / name, resume->t);
   } else {
     prepare_output_dir(dir, options.overwrite);
@@ -243,8 +244,8 @@ RunResult run_case(const Case& c, const RunOptions& options) {
   const SolverStats stats_before = resume ? resume->stats : SolverStats{};
   SolverParams solver = c.solver;  // max_steps counts the steps before a restart too
   solver.max_steps = std::max(1L, c.solver.max_steps - stats_before.steps);
-  auto integrator = make_integrator(system, solver, y, c.run.t_end, integrator_options,
-                                    resume ? resume->t : 0.0);
+  auto integrator =
+      make_integrator(system, solver, y, c.run.t_end, integrator_options, resume ? resume->t : 0.0);
   auto total_stats = [&] {
     SolverStats s = stats_before;
     return s += integrator->stats();
@@ -454,12 +455,11 @@ RunResult run_case(const Case& c, const RunOptions& options) {
     solver_description["chosen_by"] = choose_method(system, c.solver).reason;
   nlohmann::json summary = {
       {"mu", result.mu},
-      {"mu_whole_cycles",
-       cycles ? nlohmann::json{{"mu", cycles->mean / normal_force},
-                               {"from", cycles->from},
-                               {"to", cycles->to},
-                               {"crossings", cycles->crossings}}
-              : nlohmann::json()},
+      {"mu_whole_cycles", cycles ? nlohmann::json{{"mu", cycles->mean / normal_force},
+                                                  {"from", cycles->from},
+                                                  {"to", cycles->to},
+                                                  {"crossings", cycles->crossings}}
+                                 : nlohmann::json()},
       {"theta", result.theta},
       {"F_N", normal_force},
       {"contacts", result.contacts},

@@ -75,10 +75,9 @@ std::string whole_cycle_mu(const nlohmann::json& summary) {
   return it != summary.end() && it->is_object() ? number((*it)["mu"]) : std::string();
 }
 
-
 // Starts `stickslip run` for one point, its output in <dir>/run.log.
-pid_t spawn_point(const Sweep& sweep, const SweepPoint& p, const fs::path& dir,
-                  const fs::path& exe, bool restart) {
+pid_t spawn_point(const Sweep& sweep, const SweepPoint& p, const fs::path& dir, const fs::path& exe,
+                  bool restart) {
   std::vector<std::string> args = {exe.string(), "run", sweep.base_case.string(), "--quiet"};
   if (restart) {
     args.insert(args.end(), {"--restart", dir.string()});
@@ -99,8 +98,7 @@ pid_t spawn_point(const Sweep& sweep, const SweepPoint& p, const fs::path& dir,
   pid_t pid = 0;
   const int err = posix_spawn(&pid, exe.c_str(), &actions, nullptr, argv.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
-  if (err != 0)
-    throw OutputError(exe.string() + ": cannot start a point: " + std::strerror(err));
+  if (err != 0) throw OutputError(exe.string() + ": cannot start a point: " + std::strerror(err));
   return pid;
 }
 
@@ -116,8 +114,7 @@ Shard parse_shard(const std::string& text) {
   };
   Shard shard;
   if (slash == std::string::npos || !whole(text.substr(0, slash), shard.index) ||
-      !whole(text.substr(slash + 1), shard.count) || shard.count < 1 ||
-      shard.index >= shard.count)
+      !whole(text.substr(slash + 1), shard.count) || shard.count < 1 || shard.index >= shard.count)
     throw CaseError("--shard " + text +
                     ": expected i/n with whole numbers 0 <= i < n (the points whose index is i "
                     "modulo n; for a Slurm array --array=0-(n-1))");
@@ -126,11 +123,16 @@ Shard parse_shard(const std::string& text) {
 
 const char* to_string(PointState s) {
   switch (s) {
-    case PointState::absent: return "not run";
-    case PointState::incomplete: return "incomplete";
-    case PointState::finished: return "finished";
-    case PointState::stale: return "stale";
-    case PointState::failed: return "failed";
+    case PointState::absent:
+      return "not run";
+    case PointState::incomplete:
+      return "incomplete";
+    case PointState::finished:
+      return "finished";
+    case PointState::stale:
+      return "stale";
+    case PointState::failed:
+      return "failed";
   }
   return "?";
 }
@@ -141,7 +143,8 @@ PointState point_state(const SweepPoint& point, const fs::path& dir, std::string
     if (fs::exists(dir / "failed")) return PointState::failed;
     return fs::exists(dir / "friction.csv") ? PointState::incomplete : PointState::absent;
   }
-  const auto commit = summary->value(nlohmann::json::json_pointer("/provenance/git_commit"), std::string());
+  const auto commit =
+      summary->value(nlohmann::json::json_pointer("/provenance/git_commit"), std::string());
   if (commit != kGitCommit) {
     if (why) *why = "computed by code version " + commit + ", this is " + kGitCommit;
     return PointState::stale;
@@ -171,7 +174,7 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
   for (const auto& a : sweep.axes) table << ',' << a.key;
   table << ",status,mu,mu_whole_cycles,theta,contacts,F_N,energy_residual,slips,mean_recurrence,"
            "slipping_fraction";
-  const char* const sync_columns[] = {"slip_rate_ratio", "lag_mean", "lag_min", "lag_max",
+  const char* const sync_columns[] = {"slip_rate_ratio",     "lag_mean",   "lag_min",  "lag_max",
                                       "coincident_fraction", "xcorr_peak", "xcorr_lag"};
   if (any_sync)
     for (const char* c : sync_columns) table << ',' << c;
@@ -199,15 +202,16 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
     if (s.contains("events"))
       for (const auto& c : s["events"]["per_contact"]) {
         slips += c.value("slips", 0L);
-        if (c["mean_recurrence"].is_number()) recurrence += c["mean_recurrence"].get<double>(), ++n_rec;
+        if (c["mean_recurrence"].is_number())
+          recurrence += c["mean_recurrence"].get<double>(), ++n_rec;
         if (c["slipping_fraction"].is_number())
           fraction += c["slipping_fraction"].get<double>(), ++n_frac;
       }
     table << ",finished," << number(s["mu"]) << ',' << whole_cycle_mu(s) << ','
-          << number(s["theta"]) << ','
-          << number(s["contacts"]) << ',' << number(s["F_N"]) << ','
-          << number(s["energy_residual"]) << ',' << (s.contains("events") ? std::to_string(slips) : "")
-          << ',' << (n_rec ? number(recurrence / n_rec) : "") << ','
+          << number(s["theta"]) << ',' << number(s["contacts"]) << ',' << number(s["F_N"]) << ','
+          << number(s["energy_residual"]) << ','
+          << (s.contains("events") ? std::to_string(slips) : "") << ','
+          << (n_rec ? number(recurrence / n_rec) : "") << ','
           << (n_frac ? number(fraction / n_frac) : "");
     if (any_sync)
       for (const char* c : sync_columns)
@@ -269,8 +273,8 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
     const Group& g = groups[key];
     double theta = 0;
     for (double t : g.theta) theta += t / static_cast<double>(g.theta.size());
-    summary << (g.theta.empty() ? "" : num(theta)) << ',' << statistics(g.mu) << ','
-            << g.mu.size() << ','
+    summary << (g.theta.empty() ? "" : num(theta)) << ',' << statistics(g.mu) << ',' << g.mu.size()
+            << ','
             // Only when every finished point has it: never a mean over fewer points than count.
             << (g.mu_cycles.size() == g.mu.size() ? statistics(g.mu_cycles) : ",,") << '\n';
   }
@@ -297,15 +301,14 @@ SweepOutcome run_sweep(const Sweep& sweep, const std::vector<SweepPoint>& points
       if (n_stale++ == 0) stale = (options.out_dir / p.name).string() + ": " + why;
       continue;
     }
-    if (p.index % static_cast<std::size_t>(options.ranks) ==
-        static_cast<std::size_t>(options.rank))
+    if (p.index % static_cast<std::size_t>(options.ranks) == static_cast<std::size_t>(options.rank))
       todo.push_back(p.index);
   }
   if (n_stale > 0)
-    throw OutputError(stale + (n_stale > 1 ? " (and " + std::to_string(n_stale - 1) +
-                                                 " more points)"
-                                           : std::string()) +
-                      "; pass --overwrite to recompute them");
+    throw OutputError(
+        stale +
+        (n_stale > 1 ? " (and " + std::to_string(n_stale - 1) + " more points)" : std::string()) +
+        "; pass --overwrite to recompute them");
 
   struct Running {
     std::size_t index;

@@ -11,9 +11,9 @@
 #include <set>
 #include <sstream>
 
+#include "../case/toml_text.hpp"
 #include "stickslip/case/reader.hpp"
 #include "stickslip/sweep/sweep.hpp"
-#include "../case/toml_text.hpp"
 
 namespace stickslip {
 namespace {
@@ -48,8 +48,9 @@ std::pair<std::string, std::string> value_text(const toml::node& v) {
   else if (auto b = v.value_exact<bool>())
     text << (*b ? "true" : "false");
   std::string label = text.str();
-  label.erase(std::remove_if(label.begin(), label.end(), [](char c) { return c == ' ' || c == '\n'; }),
-              label.end());
+  label.erase(
+      std::remove_if(label.begin(), label.end(), [](char c) { return c == ' ' || c == '\n'; }),
+      label.end());
   return {text.str(), label};
 }
 
@@ -57,7 +58,8 @@ std::pair<std::string, std::string> value_text(const toml::node& v) {
 void leaves(const toml::table& t, const std::string& prefix,
             std::vector<std::pair<std::string, const toml::node*>>& out) {
   for (auto&& [k, v] : t) {
-    const std::string key = prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
+    const std::string key =
+        prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
     if (auto* sub = v.as_table(); sub && !prefix.empty()) {
       out.emplace_back(key, &v);  // a table value of a case key (not used by any key today)
     } else if (sub) {
@@ -93,8 +95,7 @@ Sweep read_sweep(const fs::path& file, const std::vector<std::string>& extra_set
   try {
     root = parse_toml(text.str(), std::string_view(file.native()));
   } catch (const TomlSyntaxError& e) {
-    throw CaseError(r.source + ":" + std::to_string(e.line) + ": malformed TOML: " +
-                    e.description);
+    throw CaseError(r.source + ":" + std::to_string(e.line) + ": malformed TOML: " + e.description);
   }
 
   Sweep sweep;
@@ -102,10 +103,8 @@ Sweep read_sweep(const fs::path& file, const std::vector<std::string>& extra_set
   for (auto&& [k, v] : root) {
     const std::string name(k.str());
     if (name != "sweep" && name != "vary" && name != "set")
-      r.fail(v, printable(name),
-             "unknown section" + suggest(name, {"sweep", "vary", "set"}));
-    if (!v.is_table())
-      r.fail(v, name, "expected a table [" + name + "], got " + type_name(v));
+      r.fail(v, printable(name), "unknown section" + suggest(name, {"sweep", "vary", "set"}));
+    if (!v.is_table()) r.fail(v, name, "expected a table [" + name + "], got " + type_name(v));
   }
   const toml::table* head = root["sweep"].as_table();
   if (!head) r.fail("missing [sweep] with case = \"<base case file>\"");

@@ -13,9 +13,9 @@
 namespace stickslip {
 
 struct CycleMean {
-  double mean = 0.0;        // mean of F over [from, to]
+  double mean = 0.0;            // mean of F over [from, to]
   double from = 0.0, to = 0.0;  // the first and last downward crossings (the window if < 2)
-  long crossings = 0;       // downward crossings of the window mean in the window
+  long crossings = 0;           // downward crossings of the window mean in the window
 };
 
 // F sampled at times t (increasing); only samples with t ≥ t_from count.

@@ -76,14 +76,14 @@ struct RunParams {
 };
 
 struct SolverParams {
-  Method method = Method::automatic;  // "auto": choose_method() picks
+  Method method = Method::automatic;                     // "auto": choose_method() picks
   LinearSolver linear_solver = LinearSolver::automatic;  // dirk and bdf only
   int order = 0;      // 0: the method's default (bdf: 2, see MODEL.md §12)
   double step = 0.0;  // > 0: fixed step [s], adaptivity off (ARKStep methods and rk4)
   double rtol = 1e-6;
   double atol_displacement = 1e-12;  // [m]
-  double atol_velocity = 1e-7;  // [m/s]; a case file's default: default_atol_velocity()
-  long max_steps = 50'000'000;  // over the whole run
+  double atol_velocity = 1e-7;       // [m/s]; a case file's default: default_atol_velocity()
+  long max_steps = 50'000'000;       // over the whole run
   // Largest accepted |energy-audit residual| at t_end; 0: 100 × rtol, or
   // 1e-4 for a fixed step. Beyond it the run fails and reports no μ.
   double audit_bound = 0.0;

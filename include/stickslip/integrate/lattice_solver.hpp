@@ -74,7 +74,7 @@ class LatticeSolver {
   // The factorization of M̂ per mode and layer: S_iz⁻¹, the upper block B_iz
   // of M̂, and the multiplier W_iz = B_izᴴ S_iz⁻¹.
   std::vector<Complex> s_inv_, upper_, multiplier_;
-  std::vector<double> green_;             // [a][b][iy][ix]
+  std::vector<double> green_;            // [a][b][iy][ix]
   std::vector<Complex> green_spectrum_;  // [mode][a][b]
   // FFT buffers: the velocity field (3N reals) and its half spectrum laid out
   // [mode][layer][component], so each mode's system is contiguous.

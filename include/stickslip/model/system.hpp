@@ -182,10 +182,10 @@ class System {
   std::int64_t n_;
   double a_, mass_, g1_, g2_;
   double k1_over_m_, k2_over_m_, kd_over_m_;  // [1/s²]
-  int threads_;  // OpenMP threads of the lattice forces ([solver] threads)
-  double eta_, eta_c_;                        // [1/s]
-  double v_;                                  // drive velocity [m/s]
-  double contact_force_scale_;                // ε f0 / m [m/s²]
+  int threads_;                 // OpenMP threads of the lattice forces ([solver] threads)
+  double eta_, eta_c_;          // [1/s]
+  double v_;                    // drive velocity [m/s]
+  double contact_force_scale_;  // ε f0 / m [m/s²]
   double normal_force_;
   double mu_prefactor_;    // τ_f / P0
   double slip_threshold_;  // κ

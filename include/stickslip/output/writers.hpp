@@ -25,10 +25,9 @@ class OutputError : public std::runtime_error {
 };
 
 // The files a run writes; a directory holding any of them holds results.
-inline constexpr const char* kOutputFiles[] = {"summary.json", "friction.csv",  "contacts.csv",
-                                               "traces.csv",   "events.csv",    "steps.csv",
-                                               "compare.json", "checkpoint.bin", "final_state.csv",
-                                               "signals.csv"};
+inline constexpr const char* kOutputFiles[] = {
+    "summary.json", "friction.csv", "contacts.csv",   "traces.csv",      "events.csv",
+    "steps.csv",    "compare.json", "checkpoint.bin", "final_state.csv", "signals.csv"};
 
 // Creates `dir` if needed. Refuses (OutputError) when it already holds results
 // and `overwrite` is false; with `overwrite`, removes only those result files.

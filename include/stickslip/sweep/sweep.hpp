@@ -52,7 +52,8 @@ struct SweepPoint {
 // Reads and validates a sweep file and every point it makes (CaseError, with
 // file, line and key, on any problem: nothing has run or been written yet).
 // `extra_sets` (from --set) apply to every point, after [set].
-Sweep read_sweep(const std::filesystem::path& file, const std::vector<std::string>& extra_sets = {});
+Sweep read_sweep(const std::filesystem::path& file,
+                 const std::vector<std::string>& extra_sets = {});
 std::vector<SweepPoint> sweep_points(const Sweep& sweep);
 
 enum class PointState { absent, incomplete, finished, stale, failed };
@@ -79,10 +80,10 @@ Shard parse_shard(const std::string& text);
 
 struct SweepOptions {
   std::filesystem::path out_dir;
-  int jobs = 1;            // points run at once on this process
-  bool overwrite = false;  // recompute points from another code version or case
-  int rank = 0, ranks = 1;  // this process's share: points with index % ranks == rank
-                            // (an MPI rank, or a shard of a job array)
+  int jobs = 1;                      // points run at once on this process
+  bool overwrite = false;            // recompute points from another code version or case
+  int rank = 0, ranks = 1;           // this process's share: points with index % ranks == rank
+                                     // (an MPI rank, or a shard of a job array)
   std::filesystem::path executable;  // the stickslip binary that runs each point
 };
 
