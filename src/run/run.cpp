@@ -98,41 +98,6 @@ double travel_time(const System& s, const Contact& a, const Contact& b) {
   return std::hypot(dx, dy) * s.spacing() / std::sqrt(s.g1());
 }
 
-// friction.csv's t and F_f columns from t_from on (the run's own file, whole
-// across restarts: the cut-back leaves no gap or duplicate).
-void read_friction_series(const std::filesystem::path& file, double t_from, std::vector<double>& t,
-                          std::vector<double>& f) {
-  std::ifstream in(file);
-  std::string line;
-  std::getline(in, line);  // header
-  while (std::getline(in, line)) {
-    char* end = nullptr;
-    const double time = std::strtod(line.c_str(), &end);
-    if (*end != ',') throw OutputError(file.string() + ": malformed row: " + line);
-    if (time < t_from) continue;
-    t.push_back(time);
-    f.push_back(std::strtod(end + 1, nullptr));
-  }
-}
-
-// The (t, contact_impulse) of signals.csv's last two rows (fewer if it has fewer).
-std::vector<std::array<double, 2>> last_signal_rows(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  std::string line;
-  std::getline(in, line);  // header
-  std::vector<std::array<double, 2>> rows;
-  while (std::getline(in, line)) {
-    char* end = nullptr;
-    const double t = std::strtod(line.c_str(), &end);
-    if (*end != ',') throw OutputError(file.string() + ": malformed row: " + line);
-    std::strtod(end + 1, &end);  // block velocity
-    if (*end != ',') throw OutputError(file.string() + ": malformed row: " + line);
-    rows.push_back({t, std::strtod(end + 1, nullptr)});
-    if (rows.size() > 2) rows.erase(rows.begin());
-  }
-  return rows;
-}
-
 }  // namespace
 
 void install_stop_handlers() {
@@ -193,7 +158,13 @@ RunResult run_case(const Case& c, const RunOptions& options) {
   // output times: the last two rows' (t, impulse), read back on a restart.
   std::vector<std::array<double, 2>> impulse_rows;
   if (c.output.signals) {
-    if (resume) impulse_rows = last_signal_rows(dir / "signals.csv");
+    if (resume) {
+      const TraceTable written = read_traces_csv(dir / "signals.csv");
+      const auto& impulses = written.values[1];  // t, block_velocity, contact_impulse, acoustic
+      for (std::size_t k = written.t.size() - std::min<std::size_t>(2, written.t.size());
+           k < written.t.size(); ++k)
+        impulse_rows.push_back({written.t[k], impulses[k]});
+    }
     signals.emplace(
         open_csv("signals.csv", {"t", "block_velocity", "contact_impulse", "acoustic"}));
     signals->full_precision();  // the impulse is differenced twice
@@ -418,10 +389,10 @@ RunResult run_case(const Case& c, const RunOptions& options) {
   // μ over whole cycles of F_f as well (analysis/cycles.hpp): from the output
   // samples, so it costs nothing during the run.
   friction.flush();
-  std::vector<double> series_t, series_f;
-  read_friction_series(dir / "friction.csv", t_avg, series_t, series_f);
+  const TraceTable series = read_traces_csv(dir / "friction.csv");  // t, F_f, mu_inst
   std::optional<CycleMean> cycles;
-  if (series_t.size() >= 2) cycles = whole_cycle_mean(series_t, series_f, t_avg);
+  if (std::count_if(series.t.begin(), series.t.end(), [&](double t) { return t >= t_avg; }) >= 2)
+    cycles = whole_cycle_mean(series.t, series.values[0], t_avg);
   // A result whose energy audit is off by more than the tolerances can
   // explain is not reported (docs/STABILITY.md: |R| ≈ 0.01–10 × rtol in sound
   // runs; fixed steps are held to the default's bound).
