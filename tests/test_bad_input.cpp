@@ -111,6 +111,21 @@ const std::vector<Row> kRows = {
      "[interface]\ncontacts = [\n  { site = [2, 3], v_star = 1e-2 },\n"
      "  { site = [2, 3], v_star = 2e-2 },\n]\n",
      "interface.contacts[1].site: site [2, 3] repeats interface.contacts[0] (line 3)", 4},
+    {"patch 0", "[interface]\npatch = 0\n", "interface.patch: must be >= 1, got 0", 2},
+    {"patch larger than the interface", "[lattice]\nny = 4\n[interface]\npatch = 5\n",
+     "interface.patch: a 5x5 patch does not fit the 15x4 interface (patch must be <= min(nx, ny))",
+     4},
+    {"overlapping patches",
+     "[interface]\npatch = 3\ncontacts = [\n  { site = [14, 14], v_star = 1e-2 },\n"
+     "  { site = [1, 1], v_star = 1e-2 },\n]\n",
+     "interface.contacts[1].site: its 3x3 patch overlaps that of contacts[0] at [14, 14] (line 4) "
+     "(patches wrap around the 15x15 interface)",
+     5},
+    {"random patches that do not fit",
+     "[lattice]\nnx = 4\nny = 4\n[interface]\ncoverage = 1.0\npatch = 3\n",
+     "interface.patch: only 1 of 2 non-overlapping 3x3 patches fit on the 4x4 interface with seed "
+     "1 (random placement, MODEL.md §14): lower the coverage or the patch, or try another seed",
+     6},
     {"trace id out of range", kOne + "[output]\ntraces = [0, 1]\n",
      "output.traces[1]: must be a contact id in [0, 1), got 1", 4},
     {"events id out of range", kOne + "[output]\nevents = [3]\n",

@@ -10,16 +10,19 @@ using namespace stickslip;
 
 namespace {
 
-// A small lattice with contacts moving at 0.05–20 v*: away from rest, where
-// finite differences of φ(|s|/v*)/|s| resolve (MODEL.md §6).
+// A small lattice with contacts (single sites, or two 2×2 patches, MODEL.md
+// §14) whose sites move at 0.05–75 v*: away from rest, where finite
+// differences of φ(|s|/v*)/|s| resolve (MODEL.md §6).
 struct Fixture {
   Case c;
   std::vector<double> y;
   std::unique_ptr<System> system;
-  Fixture() {
+  explicit Fixture(int patch = 1) {
     c.lattice = {4, 3, 3, 1e-4};
     c.drive.velocity = 1e-3;
+    c.interface.patch = patch;
     std::vector<Contact> contacts = {{0, 0, 1e-3}, {2, 1, 4e-4}, {3, 2, 3e-3}};
+    if (patch > 1) contacts.pop_back();  // the third would overlap
     system = std::make_unique<System>(c, contacts);
     y.assign(static_cast<std::size_t>(system->size()), 0.0);
     std::mt19937_64 gen(3);
@@ -27,10 +30,11 @@ struct Fixture {
     for (std::int64_t i = 0; i < 3 * system->num_nodes(); ++i) y[i] = 1e-6 * d(gen);
     for (std::int64_t i = 3 * system->num_nodes(); i < 6 * system->num_nodes(); ++i)
       y[i] = 1e-3 * d(gen);
-    const double speeds[3][2] = {{5e-5, 2e-5}, {-8e-3, 1e-3}, {2e-2, -3e-2}};
-    for (std::size_t k = 0; k < 3; ++k) {
-      y[system->w_index(system->contact_node(k), 0)] = speeds[k][0];
-      y[system->w_index(system->contact_node(k), 1)] = speeds[k][1];
+    const double speeds[8][2] = {{5e-5, 2e-5},  {-8e-3, 1e-3}, {2e-2, -3e-2},  {3e-4, -1e-4},
+                                 {-2e-4, 6e-5}, {1e-3, 4e-3},  {-9e-3, -2e-2}, {4e-5, 3e-5}};
+    for (std::size_t k = 0; k < system->sites().size(); ++k) {
+      y[system->w_index(system->sites()[k].node, 0)] = speeds[k][0];
+      y[system->w_index(system->sites()[k].node, 1)] = speeds[k][1];
     }
   }
 };
@@ -105,8 +109,8 @@ TEST_CASE("full Jacobian matches finite differences", "[jacobian]") {
   // elastic terms (∂a/∂u) is caught.
   const std::int64_t n3 = 3 * s.num_nodes();
   std::vector<bool> contact_row(static_cast<std::size_t>(s.size()), false);
-  for (std::size_t c = 0; c < s.contacts().size(); ++c)
-    for (int k = 0; k < 2; ++k) contact_row[s.w_index(s.contact_node(c), k)] = true;
+  for (std::size_t c = 0; c < s.sites().size(); ++c)
+    for (int k = 0; k < 2; ++k) contact_row[s.w_index(s.sites()[c].node, k)] = true;
   const auto identity = perturbed(jac, [&](auto r, auto col) { return r < n3 && col >= n3; });
   const auto damping = perturbed(jac, [&](auto r, auto col) {
     return r >= n3 && r < 2 * n3 && col >= n3 && !contact_row[static_cast<std::size_t>(r)];
@@ -126,6 +130,21 @@ TEST_CASE("contact Jacobian matches finite differences of the implicit rhs", "[j
   s.jacobian_values(f.y, jac);
   CHECK(worst_entry_error(s, f.y, jac,
                           [&](const auto& y, auto& out) { s.rhs_implicit(0.0, y, out); }) <= 1.0);
+}
+
+TEST_CASE("with 2x2 patches, every site's block matches finite differences", "[jacobian]") {
+  Fixture f(2);
+  const System& s = *f.system;
+  REQUIRE(s.sites().size() == 8);
+  auto contacts = s.jacobian_pattern(JacobianPart::contacts);
+  CHECK(contacts.nonzeros() == s.size() + 2 * static_cast<std::int64_t>(s.sites().size()));
+  s.jacobian_values(f.y, contacts);
+  CHECK(worst_entry_error(s, f.y, contacts,
+                          [&](const auto& y, auto& out) { s.rhs_implicit(0.0, y, out); }) <= 1.0);
+  auto full = s.jacobian_pattern(JacobianPart::full);
+  s.jacobian_values(f.y, full);
+  CHECK(worst_entry_error(s, f.y, full, [&](const auto& y, auto& out) { s.rhs(0.0, y, out); }) <=
+        1.0);
 }
 
 TEST_CASE("every diagonal entry is in the pattern", "[jacobian]") {

@@ -213,8 +213,8 @@ TEST_CASE("a stage with contacts is solved exactly: a direct Newton step from it
       std::vector<double> b = random_state(s, 11);
       const double speeds[3][2] = {{3e-9, 1e-9}, {-4e-3, 1e-3}, {5e-2, -2e-2}};
       for (std::size_t k = 0; k < layout.contacts.size(); ++k) {
-        b[s.w_index(s.contact_node(k), 0)] = speeds[k][0];
-        b[s.w_index(s.contact_node(k), 1)] = speeds[k][1];
+        b[s.w_index(s.sites()[k].node, 0)] = speeds[k][0];
+        b[s.w_index(s.sites()[k].node, 1)] = speeds[k][1];
       }
       std::vector<double> z = b;
       std::vector<double> weights(b.size());
@@ -238,7 +238,7 @@ TEST_CASE("a stage with contacts is solved exactly: a direct Newton step from it
       INFO(layout.what << ", gamma " << gamma);
       CHECK(relative_difference(s, newton, std::span<const double>(z.data(), n)) < 1e-10);
       // The contacts moved: the test is not of a trivial stage.
-      CHECK(std::abs(z[s.w_index(s.contact_node(0), 0)]) > 0.0);
+      CHECK(std::abs(z[s.w_index(s.sites()[0].node, 0)]) > 0.0);
     }
   }
 }

@@ -99,6 +99,7 @@ nlohmann::json to_json(const Case& c) {
         {"epsilon", i.epsilon},
         {"max_pressure", i.max_pressure},
         {"slip_threshold", i.slip_threshold},
+        {"patch", i.patch},
         {"contacts", contacts}}},
       {"drive", {{"velocity", c.drive.velocity}}},
       {"run",

@@ -26,6 +26,7 @@
 #include <sstream>
 #include <utility>
 
+#include "stickslip/model/contacts.hpp"
 #include "toml_text.hpp"
 
 namespace stickslip {
@@ -269,6 +270,7 @@ const std::vector<Entry>& schema() {
        real(&Case::interface, &InterfaceParams::max_pressure, kPositive)},
       {"interface", "slip_threshold",
        real(&Case::interface, &InterfaceParams::slip_threshold, kPositive)},
+      {"interface", "patch", integer(&Case::interface, &InterfaceParams::patch, 1)},
       {"interface", "contacts", read_contacts},
       {"drive", "velocity", real(&Case::drive, &DriveParams::velocity, kNonNegative)},
       {"run", "t_end", real(&Case::run, &RunParams::t_end, kPositive)},
@@ -390,8 +392,8 @@ void read_tables(Reader& r, const toml::table& root, Case& c) {
 
 long long contact_count(const Case& c) {
   if (!c.interface.contacts.empty()) return static_cast<long long>(c.interface.contacts.size());
-  return static_cast<long long>(
-      std::floor(c.interface.coverage * c.lattice.nx * double(c.lattice.ny) + 0.5));
+  return stickslip::contact_count(c.interface.coverage, c.lattice.nx, c.lattice.ny,
+                                  c.interface.patch);
 }
 
 void check_consistency(const Reader& r, const Case& c) {
@@ -406,11 +408,35 @@ void check_consistency(const Reader& r, const Case& c) {
 
   const int nx = c.lattice.nx, ny = c.lattice.ny;
   const std::string lattice = std::to_string(nx) + "x" + std::to_string(ny);
+  const int patch = c.interface.patch;
+  const std::string patch_name = std::to_string(patch) + "x" + std::to_string(patch);
+  if (patch > std::min(nx, ny)) {
+    const std::string bigger = "a " + patch_name + " patch does not fit the " + lattice +
+                               " interface (patch must be <= min(nx, ny))";
+    r.fail_first({{"interface.patch", bigger}, {"lattice.nx", bigger}, {"lattice.ny", bigger}});
+  }
   if (c.interface.contacts.empty() && contact_count(c) < 1) {
-    const std::string none = "a " + lattice + " interface at coverage " +
-                             fmt(c.interface.coverage) +
-                             " has no contact (floor(coverage*nx*ny + 0.5) = 0)";
-    r.fail_first({{"interface.coverage", none}, {"lattice.nx", none}, {"lattice.ny", none}});
+    const std::string none =
+        "a " + lattice + " interface at coverage " + fmt(c.interface.coverage) +
+        (patch > 1 ? " has no " + patch_name + " patch (floor(coverage*nx*ny/patch^2 + 0.5) = 0)"
+                   : " has no contact (floor(coverage*nx*ny + 0.5) = 0)");
+    r.fail_first({{"interface.coverage", none},
+                  {"interface.patch", none},
+                  {"lattice.nx", none},
+                  {"lattice.ny", none}});
+  }
+  if (c.interface.contacts.empty() && patch > 1) {
+    try {
+      place_contacts(c.lattice, c.interface);
+    } catch (const PlacementError& e) {
+      const std::string why = std::string(e.what()) + " (random placement, MODEL.md §14): " +
+                              "lower the coverage or the patch, or try another seed";
+      r.fail_first({{"interface.patch", why},
+                    {"interface.coverage", why},
+                    {"interface.seed", why},
+                    {"lattice.nx", why},
+                    {"lattice.ny", why}});
+    }
   }
 
   const double t_end = c.run.t_end, t_avg = c.run.average_from;
@@ -419,13 +445,27 @@ void check_consistency(const Reader& r, const Case& c) {
         {{"run.average_from", "must be in [0, run.t_end = " + fmt(t_end) + "), got " + fmt(t_avg)},
          {"run.t_end", "must be > run.average_from = " + fmt(t_avg) + ", got " + fmt(t_end)}});
 
-  for (std::size_t i = 0; i < c.interface.contacts.size(); ++i) {
-    const auto& k = c.interface.contacts[i];
+  const auto& explicit_contacts = c.interface.contacts;
+  for (std::size_t i = 0; i < explicit_contacts.size(); ++i) {
+    const auto& k = explicit_contacts[i];
     if (k.ix >= nx || k.iy >= ny)
       r.fail(*r.contact_sites[i], "interface.contacts[" + std::to_string(i) + "].site",
              "must lie on the " + lattice + " interface (ix < " + std::to_string(nx) + ", iy < " +
                  std::to_string(ny) + "), got [" + std::to_string(k.ix) + ", " +
                  std::to_string(k.iy) + "]");
+  }
+  if (patch > 1) {
+    std::vector<Contact> placed;
+    for (const auto& k : explicit_contacts) placed.push_back({k.ix, k.iy, k.v_star});
+    if (const auto overlap = first_overlap(placed, patch, nx, ny)) {
+      const auto [i, j] = *overlap;
+      const auto& first = explicit_contacts[i];
+      r.fail(*r.contact_sites[j], "interface.contacts[" + std::to_string(j) + "].site",
+             "its " + patch_name + " patch overlaps that of contacts[" + std::to_string(i) +
+                 "] at [" + std::to_string(first.ix) + ", " + std::to_string(first.iy) + "]" +
+                 (first.line ? " (line " + std::to_string(first.line) + ")" : "") +
+                 " (patches wrap around the " + lattice + " interface)");
+    }
   }
 
   const long long n = contact_count(c);

@@ -29,18 +29,18 @@ LatticeStageSolver::LatticeStageSolver(const System& system)
     : system_(system),
       lattice_(system),
       nodes_(system.num_nodes()),
-      contacts_(system.contacts().size()),
+      sites_(system.sites().size()),
       zero_(static_cast<std::size_t>(3 * nodes_), 0.0),
       acc_(zero_.size()),
       correction_(zero_.size()) {
-  for (std::size_t i = 0; i < contacts_; ++i)
-    contact_w_.push_back(system.w_index(system.contact_node(i), 0));
-  const auto n = static_cast<Eigen::Index>(2 * contacts_);
+  for (std::size_t i = 0; i < sites_; ++i)
+    site_w_.push_back(system.w_index(system.sites()[i].node, 0));
+  const auto n = static_cast<Eigen::Index>(2 * sites_);
   coupling_.resize(n, n);
   jacobian_.resize(n, n);
   for (auto* v : {&free_speed_, &beta_, &sigma_, &residual_, &trial_}) v->resize(n);
-  stages_.resize(contacts_);
-  predicted_speed_.resize(contacts_);
+  stages_.resize(sites_);
+  predicted_speed_.resize(sites_);
 }
 
 void LatticeStageSolver::set_gamma(double gamma) {
@@ -48,9 +48,9 @@ void LatticeStageSolver::set_gamma(double gamma) {
   if (gamma == gamma_) return;
   gamma_ = gamma;
   self_green_ = 0.5 * (lattice_.green(0, 0, 0, 0) + lattice_.green(0, 0, 1, 1));
-  const auto& sites = system_.contacts();
-  for (std::size_t i = 0; i < contacts_; ++i)
-    for (std::size_t j = 0; j < contacts_; ++j)
+  const auto& sites = system_.sites();
+  for (std::size_t i = 0; i < sites_; ++i)
+    for (std::size_t j = 0; j < sites_; ++j)
       for (int a = 0; a < 2; ++a)
         for (int b = 0; b < 2; ++b)
           coupling_(2 * i + a, 2 * j + b) =
@@ -70,15 +70,15 @@ long LatticeStageSolver::solve(double t, double gamma, std::span<const double> p
   lattice_.solve(w, w);
 
   long iterations = 0;
-  if (contacts_ > 0) {
-    for (std::size_t i = 0; i < contacts_; ++i)
-      for (int k = 0; k < 2; ++k) free_speed_(2 * i + k) = z[contact_w_[i] + k];
+  if (sites_ > 0) {
+    for (std::size_t i = 0; i < sites_; ++i)
+      for (int k = 0; k < 2; ++k) free_speed_(2 * i + k) = z[site_w_[i] + k];
     iterations = solve_contacts(predictor, weights);
     // w = w0 + M⁻¹ (γ Pᵀ a_c), γ a_c = (Σ(β) − β)/ḡ.
     std::fill(correction_.begin(), correction_.end(), 0.0);
-    for (std::size_t i = 0; i < contacts_; ++i)
+    for (std::size_t i = 0; i < sites_; ++i)
       for (int k = 0; k < 2; ++k)
-        correction_[contact_w_[i] - n3 + k] = (sigma_(2 * i + k) - beta_(2 * i + k)) / self_green_;
+        correction_[site_w_[i] - n3 + k] = (sigma_(2 * i + k) - beta_(2 * i + k)) / self_green_;
     lattice_.solve(correction_, correction_);
     for (std::size_t r = 0; r < n3; ++r) w[r] += correction_[r];
   }
@@ -97,29 +97,28 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
   constexpr double kTolerance = 1e-6;  // of the integrator's error weights
   constexpr double kStagnated = 1e-3;  // accepted if no further progress is possible
   const double gamma_self = gamma_ * self_green_;
-  for (std::size_t i = 0; i < contacts_; ++i)
-    predicted_speed_[i] = std::hypot(predictor[contact_w_[i]], predictor[contact_w_[i] + 1]);
+  for (std::size_t i = 0; i < sites_; ++i)
+    predicted_speed_[i] = std::hypot(predictor[site_w_[i]], predictor[site_w_[i] + 1]);
 
   // F(β) and its weighted max norm; Σ(β) into sigma_, ∂Σ/∂β into stages_.
   auto evaluate = [&](const Eigen::VectorXd& beta) {
-    for (std::size_t i = 0; i < contacts_; ++i) {
-      stages_[i] = system_.contact_stage(i, gamma_self, {beta(2 * i), beta(2 * i + 1)},
-                                         predicted_speed_[i], true);
+    for (std::size_t i = 0; i < sites_; ++i) {
+      stages_[i] = system_.site_stage(i, gamma_self, {beta(2 * i), beta(2 * i + 1)},
+                                      predicted_speed_[i], true);
       sigma_(2 * i) = stages_[i].s[0];
       sigma_(2 * i + 1) = stages_[i].s[1];
     }
     residual_ = beta - free_speed_ - coupling_ * (sigma_ - beta);
     double norm = 0.0;
-    for (std::size_t i = 0; i < contacts_; ++i)
+    for (std::size_t i = 0; i < sites_; ++i)
       for (int k = 0; k < 2; ++k)
-        norm = std::max(norm, std::abs(residual_(2 * i + k)) * weights[contact_w_[i] + k]);
+        norm = std::max(norm, std::abs(residual_(2 * i + k)) * weights[site_w_[i] + k]);
     return norm;
   };
 
   // Start from the predictor's contact forces: β = s0 + γ ḡ H a_c(s_pred).
-  for (std::size_t i = 0; i < contacts_; ++i) {
-    const auto a =
-        system_.contact_acceleration(i, {predictor[contact_w_[i]], predictor[contact_w_[i] + 1]});
+  for (std::size_t i = 0; i < sites_; ++i) {
+    const auto a = system_.site_acceleration(i, {predictor[site_w_[i]], predictor[site_w_[i] + 1]});
     trial_(2 * i) = gamma_self * a[0];
     trial_(2 * i + 1) = gamma_self * a[1];
   }
@@ -130,7 +129,7 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
     if (norm <= kTolerance) return it;
     // J = I + H − H E.
     jacobian_ = coupling_;
-    for (std::size_t j = 0; j < contacts_; ++j) {
+    for (std::size_t j = 0; j < sites_; ++j) {
       const auto& e = stages_[j].ds_db;
       const Eigen::VectorXd h0 = coupling_.col(2 * j), h1 = coupling_.col(2 * j + 1);
       jacobian_.col(2 * j) -= h0 * e[0] + h1 * e[2];

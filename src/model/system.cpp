@@ -34,7 +34,8 @@ System::System(const Case& c, std::vector<Contact> contacts)
       nz_(c.lattice.nz),
       n_(std::int64_t{nx_} * ny_ * nz_),
       threads_(c.solver.threads),
-      contacts_(std::move(contacts)) {
+      contacts_(std::move(contacts)),
+      patch_(c.interface.patch) {
   const auto& mat = c.material;
   a_ = c.lattice.spacing;
   mass_ = mat.density * a_ * a_ * a_;
@@ -53,9 +54,18 @@ System::System(const Case& c, std::vector<Contact> contacts)
   const auto& iface = c.interface;
   law_.shape = iface.shape;
   contact_force_scale_ = iface.epsilon * a_ * a_ * iface.shear_stress / mass_;
-  // §7: F_N = ε θ P0 Nx Ny a² with θ = N_c/(Nx Ny).
-  normal_force_ =
-      iface.epsilon * static_cast<double>(contacts_.size()) * iface.max_pressure * a_ * a_;
+  if (patch_ < 1 || patch_ > std::min(nx_, ny_))
+    throw std::invalid_argument("patch size outside [1, min(nx, ny)]");
+  if (first_overlap(contacts_, patch_, nx_, ny_))
+    throw std::invalid_argument("contact patches overlap");
+  for (const auto& ct : contacts_) {
+    if (ct.ix < 0 || ct.ix >= nx_ || ct.iy < 0 || ct.iy >= ny_ || !(ct.v_star > 0.0))
+      throw std::invalid_argument("contact outside the bottom layer or with v* <= 0");
+    for (const auto& [x, y] : patch_sites(ct.ix, ct.iy, patch_, nx_, ny_))
+      sites_.push_back({x, y, node(x, y, 0), ct.v_star});
+  }
+  // §7, §14: F_N = ε θ P0 Nx Ny a² with θ the covered fraction, sites/(Nx Ny).
+  normal_force_ = iface.epsilon * static_cast<double>(sites_.size()) * iface.max_pressure * a_ * a_;
   mu_prefactor_ = iface.shear_stress / iface.max_pressure;
   slip_threshold_ = iface.slip_threshold;
 
@@ -63,11 +73,6 @@ System::System(const Case& c, std::vector<Contact> contacts)
   y_next_.resize(ny_);
   for (int i = 0; i < nx_; ++i) x_next_[i] = (i + 1) % nx_;
   for (int i = 0; i < ny_; ++i) y_next_[i] = (i + 1) % ny_;
-  for (const auto& ct : contacts_) {
-    if (ct.ix < 0 || ct.ix >= nx_ || ct.iy < 0 || ct.iy >= ny_ || !(ct.v_star > 0.0))
-      throw std::invalid_argument("contact outside the bottom layer or with v* <= 0");
-    contact_node_.push_back(node(ct.ix, ct.iy, 0));
-  }
 }
 
 std::string System::describe_component(std::int64_t i) const {
@@ -84,7 +89,7 @@ std::string System::describe_component(std::int64_t i) const {
 }
 
 double System::coverage() const {
-  return static_cast<double>(contacts_.size()) / (nx_ * ny_);
+  return static_cast<double>(sites_.size()) / (nx_ * ny_);
 }
 
 void System::initial_state(InitialState initial, std::span<double> y) const {
@@ -169,10 +174,9 @@ void System::lattice_accelerations(double t, std::span<const double> u_in,
 }
 
 void System::add_contact_accelerations(std::span<const double> y, std::span<double> ydot) const {
-  for (std::size_t i = 0; i < contacts_.size(); ++i) {
-    const std::int64_t wx = w_index(contact_node_[i], 0);
-    const auto a = stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_,
-                                                   contacts_[i].v_star, y[wx], y[wx + 1]);
+  for (std::size_t j = 0; j < sites_.size(); ++j) {
+    const auto a = site_acceleration(j, site_velocity(j, y));
+    const std::int64_t wx = w_index(sites_[j].node, 0);
     ydot[wx] += a[0];
     ydot[wx + 1] += a[1];
   }
@@ -197,10 +201,9 @@ void System::rhs(double t, std::span<const double> y, std::span<double> ydot) co
   add_contact_accelerations(y, ydot);
 }
 
-std::array<double, 4> System::contact_block(std::size_t i, std::span<const double> y) const {
-  const std::int64_t wx = w_index(contact_node_[i], 0);
-  return contact_jacobian(law_, contact_force_scale_, eta_c_, contacts_[i].v_star, y[wx],
-                          y[wx + 1]);
+std::array<double, 4> System::site_block(std::size_t j, std::span<const double> y) const {
+  const auto s = site_velocity(j, y);
+  return contact_jacobian(law_, contact_force_scale_, eta_c_, sites_[j].v_star, s[0], s[1]);
 }
 
 SparseJacobian System::jacobian_pattern(JacobianPart part) const {
@@ -208,8 +211,8 @@ SparseJacobian System::jacobian_pattern(JacobianPart part) const {
   std::vector<Triplet> t;
   const std::int64_t size = this->size();
   for (std::int64_t r = 0; r < size; ++r) t.emplace_back(r, r, 0.0);
-  for (std::size_t i = 0; i < contacts_.size(); ++i) {
-    const std::int64_t wx = w_index(contact_node_[i], 0);
+  for (const auto& site : sites_) {
+    const std::int64_t wx = w_index(site.node, 0);
     for (int r = 0; r < 2; ++r)
       for (int c = 0; c < 2; ++c) t.emplace_back(wx + r, wx + c, 0.0);
   }
@@ -273,8 +276,8 @@ SparseJacobian System::jacobian_pattern(JacobianPart part) const {
     const auto last = jac.column.begin() + jac.row_start[r + 1];
     return static_cast<std::int64_t>(std::lower_bound(first, last, c) - jac.column.begin());
   };
-  for (std::size_t i = 0; i < contacts_.size(); ++i) {
-    const std::int64_t wx = w_index(contact_node_[i], 0);
+  for (const auto& site : sites_) {
+    const std::int64_t wx = w_index(site.node, 0);
     jac.contact_slot.push_back(
         {slot(wx, wx), slot(wx, wx + 1), slot(wx + 1, wx), slot(wx + 1, wx + 1)});
   }
@@ -283,13 +286,13 @@ SparseJacobian System::jacobian_pattern(JacobianPart part) const {
 
 void System::jacobian_values(std::span<const double> y, SparseJacobian& jac) const {
   std::copy(jac.constant_value.begin(), jac.constant_value.end(), jac.value.begin());
-  for (std::size_t i = 0; i < contacts_.size(); ++i) {
-    const auto block = contact_block(i, y);
-    for (int k = 0; k < 4; ++k) jac.value[jac.contact_slot[i][k]] += block[k];
+  for (std::size_t j = 0; j < sites_.size(); ++j) {
+    const auto block = site_block(j, y);
+    for (int k = 0; k < 4; ++k) jac.value[jac.contact_slot[j][k]] += block[k];
   }
 }
 
-// Contact i: z + γ k(|z|) z = b with k(λ) = S φ(λ/v*)/λ + η_c ≥ 0 (S = ε f0/m),
+// Site j: z + γ k(|z|) z = b with k(λ) = S φ(λ/v*)/λ + η_c ≥ 0 (S = ε f0/m),
 // so z is parallel to b and its length λ solves
 //     g(λ) = λ (1 + γ η_c) + γ S φ(λ/v*) − |b| = 0,   0 ≤ λ ≤ |b|/(1 + γ η_c),
 // where g starts negative and ends non-negative. On the velocity-weakening
@@ -302,14 +305,14 @@ void System::jacobian_values(std::span<const double> y, SparseJacobian& jac) con
 // ∂z/∂b: radially dλ/d|b| = 1/g'(λ), tangentially λ/|b| (z stays parallel
 // to b), so ∂z/∂b = (1/g') b̂b̂ᵀ + (λ/|b|)(I − b̂b̂ᵀ); at b = 0 it is I/(1 + γ η_c)
 // (φ(r)/r and φ'(r) vanish as r → 0).
-ContactStage System::contact_stage(std::size_t i, double gamma, std::array<double, 2> b,
-                                   double predictor_speed, bool derivative) const {
+ContactStage System::site_stage(std::size_t j, double gamma, std::array<double, 2> b,
+                                double predictor_speed, bool derivative) const {
   ContactStage out;
   const double damping = 1.0 + gamma * eta_c_;
   const double gs = gamma * contact_force_scale_;
   const double bx = b[0], by = b[1];
   const double b_len = std::hypot(bx, by);
-  const double v_star = contacts_[i].v_star;
+  const double v_star = sites_[j].v_star;
   auto pure_damping = [&] {
     out.s = {bx / damping, by / damping};
     if (derivative) out.ds_db = {1.0 / damping, 0.0, 0.0, 1.0 / damping};
@@ -355,10 +358,10 @@ ContactStage System::contact_stage(std::size_t i, double gamma, std::array<doubl
 long System::solve_implicit_stage(double gamma, std::span<const double> predictor,
                                   std::span<double> z) const {
   long iterations = 0;
-  for (std::size_t i = 0; i < contacts_.size(); ++i) {
-    const std::int64_t wx = w_index(contact_node_[i], 0);
-    const ContactStage c = contact_stage(i, gamma, {z[wx], z[wx + 1]},
-                                         std::hypot(predictor[wx], predictor[wx + 1]), false);
+  for (std::size_t j = 0; j < sites_.size(); ++j) {
+    const std::int64_t wx = w_index(sites_[j].node, 0);
+    const ContactStage c = site_stage(j, gamma, {z[wx], z[wx + 1]},
+                                      std::hypot(predictor[wx], predictor[wx + 1]), false);
     iterations += c.iterations;
     z[wx] = c.s[0];
     z[wx + 1] = c.s[1];
@@ -409,11 +412,10 @@ double System::lattice_dissipation(std::span<const double> y) const {
 // ε f0 φ |s| + m η_c |s|² = −m a·s for each contact.
 double System::contact_dissipation(std::span<const double> y) const {
   double sum = 0.0;
-  for (std::size_t i = 0; i < contacts_.size(); ++i) {
-    const std::int64_t wx = w_index(contact_node_[i], 0);
-    const auto a = stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_,
-                                                   contacts_[i].v_star, y[wx], y[wx + 1]);
-    sum -= a[0] * y[wx] + a[1] * y[wx + 1];
+  for (std::size_t j = 0; j < sites_.size(); ++j) {
+    const auto s = site_velocity(j, y);
+    const auto a = site_acceleration(j, s);
+    sum -= a[0] * s[0] + a[1] * s[1];
   }
   return mass_ * sum;
 }
@@ -485,8 +487,8 @@ double System::block_velocity(std::span<const double> y) const {
 
 double System::total_contact_force(std::span<const double> y) const {
   double sum = 0.0;
-  for (std::size_t i = 0; i < contacts_.size(); ++i)
-    sum += contact_acceleration(i, contact_velocity(i, y))[0];
+  for (std::size_t j = 0; j < sites_.size(); ++j)
+    sum += site_acceleration(j, site_velocity(j, y))[0];
   return mass_ * sum;
 }
 
@@ -499,34 +501,46 @@ double System::contact_impulse(double t, std::span<const double> y) const {
 }
 
 std::array<double, 2> System::contact_velocity(std::size_t i, std::span<const double> y) const {
-  const std::int64_t wx = w_index(contact_node_[i], 0);
-  return {y[wx], y[wx + 1]};
+  const auto sites = sites_of(i);
+  if (sites.size() == 1) return site_velocity(i, y);  // R = 1: no rounding by the mean
+  std::array<double, 2> mean{};
+  for (const auto& site : sites) {
+    const std::int64_t wx = w_index(site.node, 0);
+    mean[0] += y[wx];
+    mean[1] += y[wx + 1];
+  }
+  const double n = static_cast<double>(sites.size());
+  return {mean[0] / n, mean[1] / n};
 }
 
-std::array<double, 2> System::contact_acceleration(std::size_t i, std::array<double, 2> s) const {
-  return stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_, contacts_[i].v_star,
-                                         s[0], s[1]);
+std::array<double, 2> System::site_acceleration(std::size_t j, std::array<double, 2> s) const {
+  return stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_, sites_[j].v_star, s[0],
+                                         s[1]);
 }
 
 void System::stick_slip_roots(std::span<const double> y, std::span<const int> watched,
                               std::span<double> g) const {
   for (std::size_t k = 0; k < watched.size(); ++k) {
     const auto i = static_cast<std::size_t>(watched[k]);
-    const std::int64_t wx = w_index(contact_node_[i], 0);
-    g[k] = std::hypot(y[wx], y[wx + 1]) - slip_threshold_ * contacts_[i].v_star;
+    const auto s = contact_velocity(i, y);
+    g[k] = std::hypot(s[0], s[1]) - slip_threshold_ * contacts_[i].v_star;
   }
 }
 
 bool System::slipping(std::size_t i, std::span<const double> y) const {
-  const std::int64_t wx = w_index(contact_node_[i], 0);
-  return std::hypot(y[wx], y[wx + 1]) > slip_threshold_ * contacts_[i].v_star;
+  const auto s = contact_velocity(i, y);
+  return std::hypot(s[0], s[1]) > slip_threshold_ * contacts_[i].v_star;
 }
 
 double System::contact_force(std::size_t i, std::span<const double> y) const {
-  const std::int64_t wx = w_index(contact_node_[i], 0);
-  const auto a = stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_,
-                                                 contacts_[i].v_star, y[wx], y[wx + 1]);
-  return mass_ * std::hypot(a[0], a[1]);
+  std::array<double, 2> sum{};
+  const std::size_t first = i * sites_of(i).size();
+  for (std::size_t j = first; j < first + sites_of(i).size(); ++j) {
+    const auto a = site_acceleration(j, site_velocity(j, y));
+    sum[0] += a[0];
+    sum[1] += a[1];
+  }
+  return mass_ * std::hypot(sum[0], sum[1]);
 }
 
 double System::steady_sliding_mu() const {

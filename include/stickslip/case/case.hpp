@@ -60,6 +60,9 @@ struct InterfaceParams {
   double epsilon = 1e-2;        // ε, force scaling
   double max_pressure = 1e6;    // P0 [Pa]
   double slip_threshold = 1.0;  // κ: slipping while |s| > κ v*
+  // R: every contact is an R×R square of bottom nodes (MODEL.md §14); 1 is
+  // the paper's single-site contact. N_c = floor(θ Nx Ny / R² + 0.5).
+  int patch = 1;
   // A non-empty list replaces the random placement (coverage and seed unused).
   std::vector<ExplicitContact> contacts;
 };

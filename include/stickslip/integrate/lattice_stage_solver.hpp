@@ -3,7 +3,8 @@
 // (lattice, contacts and the three quadratures), for dirk and bdf.
 //
 // The lattice is linear, so eliminating it leaves a nonlinear system on the
-// 2 N_c contact velocities alone (derivation in the .cpp). That system is
+// 2 N_c contact velocities alone (derivation in the .cpp; with patches, a
+// contact here is a friction site of System). That system is
 // solved by Newton in variables where it is smooth, with every contact's own
 // equation solved exactly in log-speed as imex's stage solve does: no Newton
 // iteration ever runs on the 10¹⁰–10¹⁵ s⁻¹ contact stiffness near rest that
@@ -42,8 +43,8 @@ class LatticeStageSolver {
   const System& system_;
   LatticeSolver lattice_;
   std::int64_t nodes_;
-  std::size_t contacts_;
-  std::vector<std::int64_t> contact_w_;  // state index of each contact's w^x
+  std::size_t sites_;
+  std::vector<std::int64_t> site_w_;  // state index of each friction site's w^x
   // For the γ last seen: the bottom layer's self Green's function ḡ (the
   // mean of its xx and yy entries) and the coupling H = (G − ḡ I)/ḡ between
   // the contacts' velocities (2 N_c × 2 N_c).

@@ -50,6 +50,16 @@ struct ContactStage {
   long iterations = 0;            // scalar Newton iterations
 };
 
+// One bottom node carrying the contact law of MODEL.md §6. A contact's R×R
+// patch (§14) is R² sites with the contact's v*; for R = 1 site j is contact j.
+// The force law, its Jacobian and the implicit stage solves act on sites; stick,
+// slip, events and traces on contacts (their sites' mean velocity).
+struct FrictionSite {
+  int ix = 0, iy = 0;
+  std::int64_t node = 0;
+  double v_star = 0.0;  // [m/s]
+};
+
 struct EnergyTerms {
   double kinetic = 0.0;  // Σ m|w|²/2
   double elastic = 0.0;  // U of §3
@@ -80,7 +90,13 @@ class System {
   std::string describe_component(std::int64_t i) const;
 
   const std::vector<Contact>& contacts() const { return contacts_; }
-  std::int64_t contact_node(std::size_t i) const { return contact_node_[i]; }
+  int patch() const { return patch_; }  // R
+  const std::vector<FrictionSite>& sites() const { return sites_; }
+  // Contact i's sites.
+  std::span<const FrictionSite> sites_of(std::size_t i) const {
+    const std::size_t per = std::size_t(patch_) * patch_;
+    return std::span(sites_).subspan(i * per, per);
+  }
 
   // y at t = 0: at rest, or sliding (w^x = v everywhere); quadratures zero.
   void initial_state(InitialState initial, std::span<double> y) const;
@@ -98,17 +114,18 @@ class System {
   // the solution on return, so only the contacts' entries are touched: the
   // caller forms b in place, one pass over the state. The predictor picks among
   // several roots. Returns the number of scalar Newton iterations; throws
-  // std::runtime_error if one fails.
+  // std::runtime_error if one fails. Per site: a patch's sites are independent
+  // here (their coupling is the lattice's, explicit in imex).
   long solve_implicit_stage(double gamma, std::span<const double> predictor,
                             std::span<double> z) const;
 
-  // Contact i's stage equation s − γ a_c(s) = b, solved exactly as
-  // solve_implicit_stage does for every contact; `predictor_speed` picks among
+  // Site j's stage equation s − γ a_c(s) = b, solved exactly as
+  // solve_implicit_stage does for every site; `predictor_speed` picks among
   // several roots. ∂s/∂b is bounded (‖∂s/∂b‖ ≤ 1 where the force rises with
   // speed) even where a_c's own derivative reaches 1e15 s⁻¹, which is what
   // makes it the variable a coupled stage solve can run Newton on.
-  ContactStage contact_stage(std::size_t i, double gamma, std::array<double, 2> b,
-                             double predictor_speed, bool derivative) const;
+  ContactStage site_stage(std::size_t j, double gamma, std::array<double, 2> b,
+                          double predictor_speed, bool derivative) const;
 
   // The lattice's accelerations (elastic faces and cells, damping, drive
   // springs and dashpots to the plate; MODEL.md §3–5) at time t for
@@ -125,8 +142,8 @@ class System {
   // Refills the values of a matrix built by jacobian_pattern at y: only the
   // contact blocks depend on the state.
   void jacobian_values(std::span<const double> y, SparseJacobian& jac) const;
-  // ∂a/∂s of contact i (2×2, row-major, a = F/m, s its in-plane velocity).
-  std::array<double, 4> contact_block(std::size_t i, std::span<const double> y) const;
+  // ∂a/∂s of site j (2×2, row-major, a = F/m, s its in-plane velocity).
+  std::array<double, 4> site_block(std::size_t j, std::span<const double> y) const;
 
   // Observables.
   double friction_force(double t, std::span<const double> y) const;  // F_f of §5 [N]
@@ -138,16 +155,18 @@ class System {
   // Relative energy-audit residual [ΔE − ∫(P_in − D)] / ∫ P_in (§8), from y(t)
   // and the state it started from.
   double energy_residual(double t, std::span<const double> y, std::span<const double> y0) const;
+  // Contact i's in-plane velocity: the mean of its sites' (§14).
   std::array<double, 2> contact_velocity(std::size_t i, std::span<const double> y) const;
-  // a_c of §6 (force per mass) of contact i at in-plane velocity s.
-  std::array<double, 2> contact_acceleration(std::size_t i, std::array<double, 2> s) const;
+  // a_c of §6 (force per mass) of site j at in-plane velocity s.
+  std::array<double, 2> site_acceleration(std::size_t j, std::array<double, 2> s) const;
 
   // Stick/slip root functions (MODEL.md §9): g_k = |s_c| − κ v*_c for each
-  // watched contact c = watched[k]; positive while it slips.
+  // watched contact c = watched[k], s_c its velocity; positive while it slips.
   void stick_slip_roots(std::span<const double> y, std::span<const int> watched,
                         std::span<double> g) const;
   bool slipping(std::size_t i, std::span<const double> y) const;
-  double contact_force(std::size_t i, std::span<const double> y) const;  // |F_contact| [N]
+  // |F_contact| of contact i, the sum over its sites [N].
+  double contact_force(std::size_t i, std::span<const double> y) const;
 
   // The block's centre-of-mass x-velocity (all nodes have the same mass) [m/s].
   double block_velocity(std::span<const double> y) const;
@@ -175,6 +194,10 @@ class System {
 
  private:
   void add_contact_accelerations(std::span<const double> y, std::span<double> ydot) const;
+  std::array<double, 2> site_velocity(std::size_t j, std::span<const double> y) const {
+    const std::int64_t wx = w_index(sites_[j].node, 0);
+    return {y[wx], y[wx + 1]};
+  }
   double lattice_dissipation(std::span<const double> y) const;
   double contact_dissipation(std::span<const double> y) const;
 
@@ -191,7 +214,8 @@ class System {
   double slip_threshold_;  // κ
   FrictionLaw law_;
   std::vector<Contact> contacts_;
-  std::vector<std::int64_t> contact_node_;
+  int patch_;                         // R
+  std::vector<FrictionSite> sites_;   // contact i's are [i R², (i + 1) R²)
   std::vector<int> x_next_, y_next_;  // periodic neighbour along +x, +y
 };
 
