@@ -82,6 +82,22 @@ TEST_CASE("sine: the mean over whole periods is its offset", "[analysis][cycles]
   CHECK(std::abs(plain_mean(s, 1e-3) - 1.5) > 1e-3);
 }
 
+TEST_CASE("relative spread: a sine's amplitude over sqrt 2 over its offset", "[analysis][cycles]") {
+  // 4.0 + 0.3 sin(2π t / 5 ms), sampled every 1e-5 s over 20 whole periods after t_from = 1e-2:
+  // sd/mean = 0.3/√2/4.0 up to the sample sd's (n − 1) and the sampling.
+  std::vector<double> t, f;
+  for (int i = 0; i <= 11000; ++i) {
+    t.push_back(i * 1e-5);
+    f.push_back(4.0 + 0.3 * std::sin(2 * M_PI * t.back() / 5e-3) +
+                (t.back() < 1e-2 ? 100.0 : 0.0));  // a start the window must leave out
+  }
+  f.pop_back();
+  t.pop_back();  // exactly 20 periods: samples 1000 … 10999
+  CHECK(relative_spread(t, f, 1e-2) == Approx(0.3 / std::sqrt(2.0) / 4.0).epsilon(1e-3));
+  CHECK(relative_spread(std::vector<double>(5, 1.0), std::vector<double>(5, 2.5), 0.0) == 0.0);
+  CHECK_THROWS_AS(relative_spread(t, f, 1.0), std::invalid_argument);
+}
+
 TEST_CASE("no cycle: a constant or a ramp gives the window mean", "[analysis][cycles]") {
   const std::vector<double> t = {0, 1, 2, 3, 4}, flat = {2, 2, 2, 2, 2}, ramp = {0, 1, 2, 3, 4};
   const CycleMean c = whole_cycle_mean(t, flat, 1.0);

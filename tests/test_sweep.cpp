@@ -240,6 +240,18 @@ TEST_CASE("bad sweep files are refused: exit 2, file, line and key, nothing run"
        "[1]\n",
        {"s.toml:3: sweep.average_over: unknown key 'sed' (did you mean 'seed'?)"}},
       {"malformed TOML", "[sweep]\ncase = \"base.toml\n", {"s.toml:2: malformed TOML"}},
+      {"keys together of different lengths",
+       "[sweep]\ncase = \"base.toml\"\n[[vary.together]]\nlattice.nx = [6, 8]\nlattice.ny = [6, "
+       "8, 10]\n",
+       {"s.toml:5: vary.together.lattice.ny: expected a list as long as "
+        "vary.together.lattice.nx's (2 values)"}},
+      {"one key together",
+       "[sweep]\ncase = \"base.toml\"\n[[vary.together]]\nlattice.nx = [6, 8]\n",
+       {"s.toml:3: vary.together: needs at least two keys that change in step"}},
+      {"a linked combination the case refuses",
+       "[sweep]\ncase = \"base.toml\"\n[[vary.together]]\nlattice.nx = [6, 8]\ninterface.patch = "
+       "[1, 7]\n",
+       {"s.toml: point nx=8_patch=7 is refused by the case", "7x7 patch does not fit"}},
   };
   for (const auto& row : rows) {
     SECTION(row.name) {
@@ -253,6 +265,33 @@ TEST_CASE("bad sweep files are refused: exit 2, file, line and key, nothing run"
       CHECK(box.snapshot() == before);  // nothing written, nothing run
     }
   }
+}
+
+TEST_CASE("keys in [[vary.together]] change in step; the groups combine", "[sweep]") {
+  Sandbox box;
+  box.write("base.toml", kBase);
+  const auto file = box.write("s.toml", R"([sweep]
+case = "base.toml"
+[vary]
+interface.seed = [1, 2]
+[[vary.together]]
+lattice.nx = [6, 12, 18]
+lattice.ny = [6, 12, 18]
+lattice.nz = [4, 4, 8]
+interface.patch = [1, 2, 3]
+)");
+  const auto sweep = stickslip::read_sweep(file);
+  const auto points = stickslip::sweep_points(sweep);
+  REQUIRE(points.size() == 6);  // 2 seeds × 3 sizes, not 2 × 3⁴
+  CHECK(points[0].name == "seed=1_nx=6_ny=6_nz=4_patch=1");
+  CHECK(points[5].name == "seed=2_nx=18_ny=18_nz=8_patch=3");
+  for (const auto& p : points) {
+    CHECK(p.c.lattice.nx == 6 * p.c.interface.patch);
+    CHECK(p.c.lattice.ny == p.c.lattice.nx);
+    CHECK(p.c.lattice.nz == (p.c.interface.patch == 3 ? 8 : 4));
+  }
+  CHECK(points[1].c.interface.seed == 1);
+  CHECK(points[3].c.interface.seed == 2);
 }
 
 TEST_CASE("every file in cases/ is a valid case or sweep", "[sweep][cases]") {

@@ -1,6 +1,7 @@
 #include "stickslip/analysis/cycles.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <vector>
 
@@ -48,6 +49,21 @@ CycleMean whole_cycle_mean(std::span<const double> t_all, std::span<const double
   r.mean = r.from == t.front() && r.to == t.back() ? window_mean
                                                    : integral(t, f, r.from, r.to) / (r.to - r.from);
   return r;
+}
+
+double relative_spread(std::span<const double> t, std::span<const double> f, double t_from) {
+  if (t.size() != f.size())
+    throw std::invalid_argument("relative_spread: times and values differ in number");
+  double n = 0.0, mean = 0.0, m2 = 0.0;  // Welford: F_f's swings are small beside its mean
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    if (t[i] < t_from) continue;
+    n += 1.0;
+    const double d = f[i] - mean;
+    mean += d / n;
+    m2 += d * (f[i] - mean);
+  }
+  if (n < 2) throw std::invalid_argument("relative_spread: fewer than two samples in the window");
+  return std::sqrt(m2 / (n - 1)) / mean;
 }
 
 }  // namespace stickslip

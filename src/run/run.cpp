@@ -391,8 +391,11 @@ RunResult run_case(const Case& c, const RunOptions& options) {
   friction.flush();
   const TraceTable series = read_traces_csv(dir / "friction.csv");  // t, F_f, mu_inst
   std::optional<CycleMean> cycles;
-  if (std::count_if(series.t.begin(), series.t.end(), [&](double t) { return t >= t_avg; }) >= 2)
+  std::optional<double> spread;
+  if (std::count_if(series.t.begin(), series.t.end(), [&](double t) { return t >= t_avg; }) >= 2) {
     cycles = whole_cycle_mean(series.t, series.values[0], t_avg);
+    spread = relative_spread(series.t, series.values[0], t_avg);
+  }
   // A result whose energy audit is off by more than the tolerances can
   // explain is not reported (docs/STABILITY.md: |R| ≈ 0.01–10 × rtol in sound
   // runs; fixed steps are held to the default's bound).
@@ -431,6 +434,7 @@ RunResult run_case(const Case& c, const RunOptions& options) {
                                                   {"to", cycles->to},
                                                   {"crossings", cycles->crossings}}
                                  : nlohmann::json()},
+      {"F_f_spread", spread ? nlohmann::json(*spread) : nlohmann::json()},
       {"theta", result.theta},
       {"F_N", normal_force},
       {"contacts", result.contacts},

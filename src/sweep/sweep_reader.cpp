@@ -129,7 +129,41 @@ Sweep read_sweep(const fs::path& file, const std::vector<std::string>& extra_set
 
   std::vector<std::pair<std::string, const toml::node*>> fixed, varied;
   if (auto* t = root["set"].as_table()) leaves(*t, "", fixed);
-  if (auto* t = root["vary"].as_table()) leaves(*t, "", varied);
+  // [vary]: each key its own group; each [[vary.together]] table one group.
+  std::map<std::string, std::size_t> group_of;
+  std::size_t groups = 0;
+  if (auto* t = root["vary"].as_table()) {
+    leaves(*t, "", varied);
+    std::erase_if(varied, [](const auto& kv) { return kv.first == "together"; });
+    for (const auto& [key, v] : varied) group_of[key] = groups++;
+    if (const toml::node* together = t->get("together")) {
+      const auto* tables = together->as_array();
+      if (!tables || !tables->is_array_of_tables())
+        r.fail(*together, "vary.together",
+               "expected [[vary.together]] tables of keys that change in step");
+      for (const auto& table : *tables) {
+        std::vector<std::pair<std::string, const toml::node*>> linked;
+        leaves(*table.as_table(), "", linked);
+        if (linked.size() < 2)
+          r.fail(table, "vary.together", "needs at least two keys that change in step");
+        const auto* first = linked.front().second->as_array();
+        for (const auto& [key, v] : linked) {
+          const auto* list = v->as_array();
+          if (!list || !first || list->size() != first->size())
+            r.fail(*v, "vary.together." + printable(key),
+                   "expected a list as long as vary.together." + printable(linked.front().first) +
+                       "'s (" + std::to_string(first ? first->size() : 0) +
+                       " values): the keys change in step");
+          group_of[key] = groups;
+          varied.emplace_back(key, v);
+        }
+        ++groups;
+      }
+    }
+    std::stable_sort(varied.begin(), varied.end(), [](const auto& a, const auto& b) {
+      return a.second->source().begin.line < b.second->source().begin.line;
+    });
+  }
   if (varied.empty()) r.fail(*head, "vary", "a sweep needs [vary] with at least one key");
 
   std::set<std::string> seen;
@@ -169,17 +203,21 @@ Sweep read_sweep(const fs::path& file, const std::vector<std::string>& extra_set
     }
     if (items.empty())
       r.fail(*v, where, "expected a non-empty list of values (or a table of labelled values)");
-    SweepAxis axis{key, {}, {}, static_cast<int>(v->source().begin.line)};
+    SweepAxis axis{key, {}, {}, static_cast<int>(v->source().begin.line), group_of.at(key)};
+    const bool linked = std::count_if(group_of.begin(), group_of.end(),
+                                      [&](const auto& g) { return g.second == axis.group; }) > 1;
     for (const auto& [item_label, node] : items) {
       const toml::node& item = *node;
       auto toml_value = value_text(item).first;
       const std::string& label = item_label;
-      if (std::find(axis.labels.begin(), axis.labels.end(), label) != axis.labels.end())
+      // A key that changes in step with others may repeat a value.
+      if (!linked && std::find(axis.labels.begin(), axis.labels.end(), label) != axis.labels.end())
         r.fail(item, where, "repeats the value " + label);
+      // Alone against the base case; linked values only together, as points.
       auto overrides = sweep.fixed;
       overrides.push_back(key + "=" + toml_value);
       try {
-        (void)read_case(sweep.base_case, overrides);
+        if (!linked) (void)read_case(sweep.base_case, overrides);
       } catch (const CaseError& e) {
         r.fail(item, where, "value " + label + " is refused by the case: " + e.what());
       }
@@ -200,20 +238,31 @@ std::vector<SweepPoint> sweep_points(const Sweep& sweep) {
   for (std::size_t i = 0; i < names.size(); ++i)
     if (std::count(names.begin(), names.end(), names[i]) > 1) names[i] = sweep.axes[i].key;
 
+  // Every combination of the groups, the group of the first axis slowest.
+  std::vector<std::size_t> group_order, group_size;
+  for (const auto& a : sweep.axes)
+    if (std::find(group_order.begin(), group_order.end(), a.group) == group_order.end()) {
+      group_order.push_back(a.group);
+      group_size.push_back(a.values.size());
+    }
   std::size_t total = 1;
-  for (const auto& a : sweep.axes) total *= a.values.size();
+  for (std::size_t n : group_size) total *= n;
   std::vector<SweepPoint> points;
   points.reserve(total);
   for (std::size_t index = 0; index < total; ++index) {
     SweepPoint p;
     p.index = index;
     p.overrides = sweep.fixed;
+    std::map<std::size_t, std::size_t> value_of;  // group -> its value's index
     std::size_t rest = index, stride = total;
+    for (std::size_t g = 0; g < group_order.size(); ++g) {
+      stride /= group_size[g];
+      value_of[group_order[g]] = rest / stride;
+      rest %= stride;
+    }
     for (std::size_t i = 0; i < sweep.axes.size(); ++i) {
       const auto& a = sweep.axes[i];
-      stride /= a.values.size();
-      const std::size_t k = rest / stride;
-      rest %= stride;
+      const std::size_t k = value_of.at(a.group);
       p.labels.push_back(a.labels[k]);
       p.overrides.push_back(a.key + "=" + a.values[k]);
       if (i > 0) p.name += '_';

@@ -25,4 +25,10 @@ struct CycleMean {
 // window or sizes that differ.
 CycleMean whole_cycle_mean(std::span<const double> t, std::span<const double> f, double t_from);
 
+// The standard deviation of F over its mean, of the samples with t ≥ t_from
+// (equally spaced output samples): how far F_f swings about μ F_N, the size of
+// block-scale stick-slip (MODEL.md §14). Throws std::invalid_argument with
+// fewer than two samples in the window or sizes that differ.
+double relative_spread(std::span<const double> t, std::span<const double> f, double t_from);
+
 }  // namespace stickslip

@@ -8,6 +8,9 @@
 //     [vary]                             # every combination of these
 //     interface.coverage = [0.04, 0.1, 0.2]
 //     interface.seed = [1, 2, 3, 4, 5]
+//     [[vary.together]]                  # keys that change in step (optional)
+//     lattice.nx = [6, 12]
+//     interface.patch = [1, 2]
 //     [set]                              # the same for every point (optional)
 //     run.t_end = 0.02
 //
@@ -31,6 +34,9 @@ struct SweepAxis {
   std::vector<std::string> values;  // each as TOML text, as --set takes it
   std::vector<std::string> labels;  // each as shown in directory names and CSV
   int line = 0;                     // where the list is in the sweep file
+  // Axes with the same group change in step (a [[vary.together]] table): the
+  // points are every combination of the groups, not of the axes.
+  std::size_t group = 0;
 };
 
 struct Sweep {
