@@ -310,3 +310,63 @@ TEST_CASE(
     if (rows[i][1] > rows[peak][1]) peak = i;
   CHECK(rows[peak][0] == Approx(57.735 / (4 * 10 * 1e-4)).epsilon(0.1));
 }
+
+TEST_CASE("patch_size.py: mu and F_f's spread per patch size and coverage, means over seeds",
+          "[slow][plots]") {
+  Sandbox box("stickslip_plots_");
+  box.write("base.toml", kTinyBase);
+  box.write("p.toml",
+            "[sweep]\ncase = \"base.toml\"\n[vary]\ninterface.coverage = [0.2, 0.5]\n"
+            "interface.seed = [1, 2]\n[[vary.together]]\nlattice.nx = [6, 8]\n"
+            "lattice.ny = [6, 8]\ninterface.patch = [1, 2]\n");
+  const auto missing = python(box, "patch_size.py", "out/p");
+  CHECK(missing.code == 2);
+  CHECK_THAT(missing.out, Catch::Contains("out/p/sweep.csv: not found"));
+  REQUIRE(box.run({"sweep", "p.toml", "--jobs", "2"}).code == 0);
+
+  // Expected: from every point's summary.json, grouped by (R, coverage).
+  std::map<std::pair<int, double>, std::vector<double>> mu, spread;
+  for (const auto& entry : fs::directory_iterator(box.work / "out" / "p")) {
+    if (!entry.is_directory()) continue;
+    const auto s = nlohmann::json::parse(slurp(entry.path() / "summary.json"));
+    const std::pair<int, double> key{s["case"]["interface"]["patch"].get<int>(),
+                                     s["case"]["interface"]["coverage"].get<double>()};
+    mu[key].push_back(s["mu_whole_cycles"].is_object() ? s["mu_whole_cycles"]["mu"].get<double>()
+                                                       : s["mu"].get<double>());
+    spread[key].push_back(s["F_f_spread"].get<double>());
+  }
+  REQUIRE(mu.size() == 4);
+  const auto mean = [](const std::vector<double>& v) {
+    REQUIRE(v.size() == 2);
+    return (v[0] + v[1]) / 2;
+  };
+
+  const auto r = python(box, "patch_size.py", "out/p");
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  check_png(box.work / "out" / "p" / "patch_size.png");
+  static const std::regex group(
+      R"(R=(\d) coverage=(\S+) theta=\S+ n=(\d) mu_mean=(\S+) mu_sd=\S+ spread_mean=(\S+) .*)");
+  static const std::regex dropped(R"(R=(\d) drop=(\S+) drop_sd=\S+)");
+  int groups = 0, drops = 0;
+  std::istringstream lines(r.out);
+  for (std::string line; std::getline(lines, line);) {
+    std::smatch m;
+    if (std::regex_match(line, m, group)) {
+      const std::pair<int, double> key{std::stoi(m[1].str()), std::stod(m[2].str())};
+      REQUIRE(mu.count(key) == 1);
+      CHECK(m[3].str() == "2");
+      CHECK(std::stod(m[4].str()) == Approx(mean(mu[key])).epsilon(1e-5));
+      CHECK(std::stod(m[5].str()) == Approx(mean(spread[key])).epsilon(1e-3));
+      ++groups;
+    } else if (std::regex_match(line, m, dropped)) {
+      const int patch = std::stoi(m[1].str());
+      const double low = mean(mu[{patch, 0.2}]), high = mean(mu[{patch, 0.5}]);
+      CHECK(std::stod(m[2].str()) == Approx((low - high) / low).margin(1e-3));
+      ++drops;
+    }
+  }
+  CHECK(groups == 4);
+  CHECK(drops == 2);
+  CHECK(fs::exists(box.work / "out" / "p" / "patch_size.csv"));
+}
