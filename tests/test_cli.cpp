@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "sandbox.hpp"
+#include "stickslip/output/recorder.hpp"
 
 namespace fs = std::filesystem;
 using Catch::Contains;
@@ -216,4 +217,28 @@ TEST_CASE("an output directory whose summary.json is a directory is bad input", 
   CHECK(r.code == 2);
   CHECK(lines(r.err) == 1);
   CHECK(box.snapshot() == before);
+}
+
+// Every file any output may write marks a directory as holding results, and
+// --overwrite removes each one, also those the new run does not write (no
+// stale steps.csv or signals.csv next to the new results).
+TEST_CASE("a rerun with --overwrite leaves no stale output of any kind", "[cli]") {
+  Sandbox box;
+  const fs::path file = box.write("tiny.toml", kTiny);
+  const fs::path out = box.work / "results";
+  const auto files = stickslip::recorder_files();
+  REQUIRE(files.size() >= 7);
+  for (const std::string& name : files) {
+    INFO(name);
+    fs::remove_all(out);
+    fs::create_directories(out);
+    spit(out / name, "stale\n");
+    const Result refused = box.run({"run", file.string(), "--out", out.string(), "--quiet"});
+    CHECK(refused.code == 2);
+    CHECK_THAT(refused.err, Contains(name) && Contains("--overwrite"));
+    const Result r =
+        box.run({"run", file.string(), "--out", out.string(), "--quiet", "--overwrite"});
+    REQUIRE(r.code == 0);
+    CHECK((!fs::exists(out / name) || slurp(out / name) != "stale\n"));
+  }
 }

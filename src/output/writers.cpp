@@ -7,12 +7,13 @@
 
 namespace stickslip {
 
-void prepare_output_dir(const std::filesystem::path& dir, bool overwrite) {
+void prepare_output_dir(const std::filesystem::path& dir, bool overwrite,
+                        std::span<const std::string> result_files) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
     throw OutputError(dir.string() + ": output path exists and is not a directory");
-  for (const char* name : kOutputFiles) {
+  for (const std::string& name : result_files) {
     const fs::path file = dir / name;
     if (!fs::exists(file, ec)) continue;
     if (!overwrite)

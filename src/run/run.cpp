@@ -4,24 +4,20 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
-#include <fstream>
-#include <functional>
 #include <limits>
 #include <memory>
 #include <optional>
 
-#include "stickslip/analysis/compare.hpp"
-#include "stickslip/analysis/cycles.hpp"
 #include "stickslip/analysis/events.hpp"
 #include "stickslip/integrate/sundials.hpp"
 #include "stickslip/model/contacts.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/output/checkpoint.hpp"
+#include "stickslip/output/recorder.hpp"
 #include "stickslip/output/writers.hpp"
 #include "stickslip/version.hpp"
 
@@ -78,26 +74,6 @@ class Progress {
   bool shown_ = false;
 };
 
-std::vector<int> selected(ContactSelection which, const std::vector<int>& ids,
-                          std::size_t contacts) {
-  if (which == ContactSelection::list) return ids;
-  std::vector<int> all;
-  if (which == ContactSelection::all)
-    for (std::size_t i = 0; i < contacts; ++i) all.push_back(static_cast<int>(i));
-  return all;
-}
-
-// Elastic travel time between two bottom sites at the transverse sound speed,
-// over the shortest periodic separation: the default coincidence window.
-double travel_time(const System& s, const Contact& a, const Contact& b) {
-  auto wrap = [](int d, int n) {
-    d = std::abs(d) % n;
-    return std::min(d, n - d);
-  };
-  const double dx = wrap(a.ix - b.ix, s.nx()), dy = wrap(a.iy - b.iy, s.ny());
-  return std::hypot(dx, dy) * s.spacing() / std::sqrt(s.g1());
-}
-
 }  // namespace
 
 void install_stop_handlers() {
@@ -111,11 +87,22 @@ std::filesystem::path output_dir_for(const Case& c, const std::filesystem::path&
   return std::filesystem::path("out") / c.source.stem();
 }
 
+namespace {
+// Files that hold results: the run's own, every recorder's, and what
+// `stickslip compare` leaves in a run's directory.
+std::vector<std::string> result_files() {
+  std::vector<std::string> files = recorder_files();
+  for (const char* name : {"summary.json", "compare.json", kCheckpointFile})
+    files.emplace_back(name);
+  return files;
+}
+}  // namespace
+
 RunResult run_case(const Case& c, const RunOptions& options) {
   const auto wall_start = Clock::now();
   const auto& dir = options.out_dir;
-  // A restart continues from the checkpoint: same case, same code, and every
-  // output cut back to the checkpoint's time so no row is duplicated.
+  // A restart continues from the checkpoint: same case, same code; every
+  // recorder cuts its output back to the checkpoint's time.
   std::optional<Checkpoint> resume;
   if (options.restart) {
     if (std::filesystem::exists(dir / "summary.json"))
@@ -127,64 +114,29 @@ RunResult run_case(const Case& c, const RunOptions& options) {
     if (resume->git_commit != kGitCommit)
       throw OutputError((dir / kCheckpointFile).string() + ": written by code version " +
                         resume->git_commit + ", this is " + kGitCommit);
-    for (const char* name :
-         {"friction.csv", "traces.csv", "events.csv", "steps.csv", "signals.csv"})
-      keep_rows_up_to(dir / name, resume->t);
   } else {
-    prepare_output_dir(dir, options.overwrite);
+    prepare_output_dir(dir, options.overwrite, result_files());
   }
   const System system(c, place_contacts(c.lattice, c.interface));
   const auto& contacts = system.contacts();
+  std::vector<double> y0(static_cast<std::size_t>(system.size()));
+  system.initial_state(c.run.initial, y0);
+  std::vector<double> y = resume ? resume->state : y0;
 
-  if (!resume) {
-    std::ofstream out(dir / "contacts.csv");
-    out << "id,ix,iy,v_star\n";
-    char line[96];
-    for (std::size_t i = 0; i < contacts.size(); ++i) {
-      std::snprintf(line, sizeof line, "%zu,%d,%d,%.17g\n", i, contacts[i].ix, contacts[i].iy,
-                    contacts[i].v_star);
-      out << line;
-    }
-  }
-  // Only what the case asks for is recorded: traces, events, steps.
-  auto open_csv = [&](const char* name, const std::vector<std::string>& header) {
-    return resume ? CsvWriter::append(dir / name) : CsvWriter(dir / name, header);
+  // Only what the case asks for is recorded (traces, events, steps, signals, ...).
+  const auto watched = selected_contacts(c.output.events, c.output.event_ids, contacts.size());
+  const auto recorders = make_recorders(
+      {c, system, dir, y0, resume ? std::optional<double>(resume->t) : std::nullopt,
+       selected_contacts(c.output.traces, c.output.trace_ids, contacts.size()), watched});
+  auto flush_all = [&] {
+    for (const auto& r : recorders) r->flush();
   };
-  CsvWriter friction = open_csv("friction.csv", {"t", "F_f", "mu_inst"});
-  const auto traced = selected(c.output.traces, c.output.trace_ids, contacts.size());
-  const auto watched = selected(c.output.events, c.output.event_ids, contacts.size());
-  std::optional<CsvWriter> traces, events_csv, steps_csv, signals;
-  // The acoustic signal is a second difference of the contact impulse over the
-  // output times: the last two rows' (t, impulse), read back on a restart.
-  std::vector<std::array<double, 2>> impulse_rows;
-  if (c.output.signals) {
-    if (resume) {
-      const TraceTable written = read_traces_csv(dir / "signals.csv");
-      const auto& impulses = written.values[1];  // t, block_velocity, contact_impulse, acoustic
-      for (std::size_t k = written.t.size() - std::min<std::size_t>(2, written.t.size());
-           k < written.t.size(); ++k)
-        impulse_rows.push_back({written.t[k], impulses[k]});
-    }
-    signals.emplace(
-        open_csv("signals.csv", {"t", "block_velocity", "contact_impulse", "acoustic"}));
-    signals->full_precision();  // the impulse is differenced twice
-  }
-  if (!traced.empty()) {
-    std::vector<std::string> header{"t"};
-    for (int id : traced) {
-      header.push_back("vx_" + std::to_string(id));
-      header.push_back("vy_" + std::to_string(id));
-    }
-    traces.emplace(open_csv("traces.csv", header));
-  }
-  if (!watched.empty())
-    events_csv.emplace(open_csv("events.csv", {"t", "contact", "kind", "speed", "force"}));
+
   IntegratorOptions integrator_options;
   integrator_options.watched_contacts = watched;
-  // Between output times too, every kPollSteps steps: flush the CSVs now and
-  // then, and stop at once when SIGINT or SIGTERM arrived.
+  // Between output times too, every kPollSteps steps: flush the outputs now
+  // and then, and stop at once when SIGINT or SIGTERM arrived.
   auto last_flush = Clock::now();
-  std::function<void()> flush_all;
   integrator_options.poll = [&] {
     if (seconds_since(last_flush) > kFlushSeconds) {
       flush_all();
@@ -192,26 +144,14 @@ RunResult run_case(const Case& c, const RunOptions& options) {
     }
     return g_stop_signal != 0;
   };
-  if (c.output.steps) {
-    steps_csv.emplace(open_csv("steps.csv", {"t", "h", "error"}));
-    integrator_options.on_step = [&](const StepRecord& r) {
-      const double row[2] = {r.h, r.error};
-      steps_csv->row(r.t, row);
+  std::vector<Recorder*> step_recorders;
+  for (const auto& r : recorders)
+    if (r->wants_steps()) step_recorders.push_back(r.get());
+  if (!step_recorders.empty())
+    integrator_options.on_step = [&](const StepRecord& step) {
+      for (Recorder* r : step_recorders) r->step(step);
     };
-  }
 
-  // The pair whose synchronization is reported: the only two contacts, or the
-  // only two watched ones. Their x-velocities are kept in memory only if traced.
-  std::optional<std::pair<int, int>> pair;
-  if (watched.size() == 2) pair = {watched[0], watched[1]};
-  std::vector<double> pair_t, pair_va, pair_vb;
-  const bool pair_traced = pair &&
-                           std::find(traced.begin(), traced.end(), pair->first) != traced.end() &&
-                           std::find(traced.begin(), traced.end(), pair->second) != traced.end();
-
-  std::vector<double> y0(static_cast<std::size_t>(system.size()));
-  system.initial_state(c.run.initial, y0);
-  std::vector<double> y = resume ? resume->state : y0;
   const SolverStats stats_before = resume ? resume->stats : SolverStats{};
   SolverParams solver = c.solver;  // max_steps counts the steps before a restart too
   solver.max_steps = std::max(1L, c.solver.max_steps - stats_before.steps);
@@ -222,34 +162,15 @@ RunResult run_case(const Case& c, const RunOptions& options) {
     return s += integrator->stats();
   };
 
-  std::vector<bool> slipping_at_start(contacts.size());
-  for (std::size_t i = 0; i < contacts.size(); ++i) slipping_at_start[i] = system.slipping(i, y0);
-  std::vector<Event> events;
-  if (resume && events_csv) events = read_events_csv(dir / "events.csv");
-  if (resume && pair_traced) {
-    const TraceTable table = read_traces_csv(dir / "traces.csv");
-    auto column = [&](int id) {
-      const auto name = "vx_" + std::to_string(id);
-      return table.values[static_cast<std::size_t>(
-          std::find(table.columns.begin(), table.columns.end(), name) - table.columns.begin())];
-    };
-    pair_t = table.t;
-    pair_va = column(pair->first);
-    pair_vb = column(pair->second);
-  }
-  char line[160];
   auto record_events = [&](double t) {
     const auto roots = integrator->roots();
     for (std::size_t k = 0; k < roots.size(); ++k) {
       if (roots[k] == 0) continue;
       const auto id = static_cast<std::size_t>(watched[k]);
       const auto v = system.contact_velocity(id, y);
-      Event e{t, watched[k], roots[k] > 0 ? EventKind::slip : EventKind::stick,
-              std::hypot(v[0], v[1]), system.contact_force(id, y)};
-      events.push_back(e);
-      std::snprintf(line, sizeof line, "%.15g,%d,%s,%.10g,%.10g", e.t, e.contact,
-                    e.kind == EventKind::slip ? "slip" : "stick", e.speed, e.force);
-      events_csv->line(line);
+      const Event e{t, watched[k], roots[k] > 0 ? EventKind::slip : EventKind::stick,
+                    std::hypot(v[0], v[1]), system.contact_force(id, y)};
+      for (const auto& r : recorders) r->event(e);
     }
   };
   // Integrates to `target`, stopping at every stick/slip transition on the
@@ -261,39 +182,8 @@ RunResult run_case(const Case& c, const RunOptions& options) {
       if (t >= target || g_stop_signal) return t;
     }
   };
-
-  const double normal_force = system.normal_force();
-  std::vector<double> trace_row(2 * traced.size());
   auto record = [&](double t) {
-    const double ff = system.friction_force(t, y);
-    const double row[2] = {ff, ff / normal_force};
-    friction.row(t, row);
-    if (signals) {
-      const double impulse = system.contact_impulse(t, y);
-      double acoustic = std::nan("");
-      if (impulse_rows.size() == 2) {
-        const auto [t0, j0] = impulse_rows[0];
-        const auto [t1, j1] = impulse_rows[1];
-        acoustic = ((impulse - j1) / (t - t1) - (j1 - j0) / (t1 - t0)) / (0.5 * (t - t0));
-        impulse_rows.erase(impulse_rows.begin());
-      }
-      impulse_rows.push_back({t, impulse});
-      const double values[3] = {system.block_velocity(y), impulse, acoustic};
-      signals->row(t, values);
-    }
-    if (traces) {
-      for (std::size_t k = 0; k < traced.size(); ++k) {
-        const auto v = system.contact_velocity(static_cast<std::size_t>(traced[k]), y);
-        trace_row[2 * k] = v[0];
-        trace_row[2 * k + 1] = v[1];
-      }
-      traces->row(t, trace_row);
-    }
-    if (pair_traced) {
-      pair_t.push_back(t);
-      pair_va.push_back(system.contact_velocity(static_cast<std::size_t>(pair->first), y)[0]);
-      pair_vb.push_back(system.contact_velocity(static_cast<std::size_t>(pair->second), y)[0]);
-    }
+    for (const auto& r : recorders) r->record(t, y);
   };
   // A run that goes wrong stops here, keeping every row written so far; its
   // μ is never reported. Fixed-step runs can blow up without any error test,
@@ -317,14 +207,6 @@ RunResult run_case(const Case& c, const RunOptions& options) {
         throw IntegrationError(msg);
       }
     }
-  };
-
-  flush_all = [&] {
-    friction.flush();
-    if (traces) traces->flush();
-    if (events_csv) events_csv->flush();
-    if (steps_csv) steps_csv->flush();
-    if (signals) signals->flush();
   };
 
   if (!resume) record(0.0);
@@ -378,24 +260,16 @@ RunResult run_case(const Case& c, const RunOptions& options) {
     flush_all();
     throw;
   }
+  flush_all();
 
   RunResult result;
+  const double normal_force = system.normal_force();
   result.contacts = contacts.size();
   result.theta = system.coverage();
   result.normal_force = normal_force;
   result.mu = (y[impulse] - impulse_at_avg) / ((t_end - t_avg) * normal_force);
   result.energy_residual = system.energy_residual(t_end, y, y0);
   result.stats = total_stats();
-  // μ over whole cycles of F_f as well (analysis/cycles.hpp): from the output
-  // samples, so it costs nothing during the run.
-  friction.flush();
-  const TraceTable series = read_traces_csv(dir / "friction.csv");  // t, F_f, mu_inst
-  std::optional<CycleMean> cycles;
-  std::optional<double> spread;
-  if (std::count_if(series.t.begin(), series.t.end(), [&](double t) { return t >= t_avg; }) >= 2) {
-    cycles = whole_cycle_mean(series.t, series.values[0], t_avg);
-    spread = relative_spread(series.t, series.values[0], t_avg);
-  }
   // A result whose energy audit is off by more than the tolerances can
   // explain is not reported (docs/STABILITY.md: |R| ≈ 0.01–10 × rtol in sound
   // runs; fixed steps are held to the default's bound).
@@ -429,12 +303,6 @@ RunResult run_case(const Case& c, const RunOptions& options) {
     solver_description["chosen_by"] = choose_method(system, c.solver).reason;
   nlohmann::json summary = {
       {"mu", result.mu},
-      {"mu_whole_cycles", cycles ? nlohmann::json{{"mu", cycles->mean / normal_force},
-                                                  {"from", cycles->from},
-                                                  {"to", cycles->to},
-                                                  {"crossings", cycles->crossings}}
-                                 : nlohmann::json()},
-      {"F_f_spread", spread ? nlohmann::json(*spread) : nlohmann::json()},
       {"theta", result.theta},
       {"F_N", normal_force},
       {"contacts", result.contacts},
@@ -449,39 +317,7 @@ RunResult run_case(const Case& c, const RunOptions& options) {
       {"provenance", {{"git_commit", kGitCommit}, {"sundials_version", SUNDIALS_VERSION}}},
       {"case", to_json(c)},
   };
-  if (!watched.empty()) {
-    nlohmann::json per_contact = nlohmann::json::array();
-    for (int id : watched)
-      per_contact.push_back(to_json(contact_statistics(
-          events, id, slipping_at_start[static_cast<std::size_t>(id)], t_avg, t_end)));
-    summary["events"] = {
-        {"count", events.size()}, {"window", {t_avg, t_end}}, {"per_contact", per_contact}};
-  }
-  if (pair) {
-    const double window = travel_time(system, contacts[static_cast<std::size_t>(pair->first)],
-                                      contacts[static_cast<std::size_t>(pair->second)]);
-    // Only the averaging window is correlated: the start from rest is a transient.
-    summary["synchronization"] = to_json(synchronization(events, pair->first, pair->second, window,
-                                                         t_avg, t_end, pair_t, pair_va, pair_vb));
-  }
-  if (c.output.final_state) {
-    // For comparing runs state by state (bench/work_precision.py).
-    CsvWriter state(dir / "final_state.csv",
-                    {"t", "ix", "iy", "iz", "u_x", "u_y", "u_z", "w_x", "w_y", "w_z"});
-    state.full_precision();
-    std::array<double, 9> row{};
-    for (int iz = 0; iz < system.nz(); ++iz)
-      for (int iy = 0; iy < system.ny(); ++iy)
-        for (int ix = 0; ix < system.nx(); ++ix) {
-          const std::int64_t n = system.node(ix, iy, iz);
-          row = {double(ix), double(iy), double(iz)};
-          for (int k = 0; k < 3; ++k) {
-            row[3 + k] = y[static_cast<std::size_t>(system.u_index(n, k))];
-            row[6 + k] = y[static_cast<std::size_t>(system.w_index(n, k))];
-          }
-          state.row(t_end, row);
-        }
-  }
+  for (const auto& r : recorders) r->finish(t_end, y, summary);
   write_json_atomically(dir / "summary.json", summary);
   // The run is complete: its checkpoint has nothing left to resume.
   std::filesystem::remove(dir / kCheckpointFile);

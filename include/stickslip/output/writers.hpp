@@ -24,14 +24,10 @@ class OutputError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// The files a run writes; a directory holding any of them holds results.
-inline constexpr const char* kOutputFiles[] = {
-    "summary.json", "friction.csv", "contacts.csv",   "traces.csv",      "events.csv",
-    "steps.csv",    "compare.json", "checkpoint.bin", "final_state.csv", "signals.csv"};
-
-// Creates `dir` if needed. Refuses (OutputError) when it already holds results
-// and `overwrite` is false; with `overwrite`, removes only those result files.
-void prepare_output_dir(const std::filesystem::path& dir, bool overwrite);
+// Creates `dir` if needed. Refuses (OutputError) when it already holds any of
+// `result_files` and `overwrite` is false; with `overwrite`, removes only those.
+void prepare_output_dir(const std::filesystem::path& dir, bool overwrite,
+                        std::span<const std::string> result_files);
 
 class CsvWriter {
  public:

@@ -1,0 +1,70 @@
+#pragma once
+// The outputs of a run, each one Recorder: it opens its file, records at the
+// output times, at stick/slip events or at steps, flushes, cuts itself back
+// to a checkpoint on a restart (reading back what it needs to continue), and
+// adds its part to summary.json when the run ends. The run loop
+// (run/run.cpp) owns advancing, averaging, checkpoints and the energy-audit
+// gate, and knows the outputs only through this interface. A new output is
+// one class in src/output/recorders.cpp, its line in the registry there, and
+// its case key.
+
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "stickslip/analysis/events.hpp"
+#include "stickslip/case/case.hpp"
+#include "stickslip/integrate/integrator.hpp"
+#include "stickslip/model/system.hpp"
+
+namespace stickslip {
+
+// What a recorder is built from.
+struct RecorderSetup {
+  const Case& c;
+  const System& system;
+  std::filesystem::path dir;
+  std::span<const double> initial_state;  // at t = 0 (a restart's too)
+  // A restart: continue every file from this time (rows after it are dropped).
+  std::optional<double> resume_at;
+  std::vector<int> traced;   // contact ids whose velocities [output] traces asks for
+  std::vector<int> watched;  // contact ids whose events [output] events asks for
+};
+
+class Recorder {
+ public:
+  virtual ~Recorder() = default;
+  // At every output time, the state there (also t = 0 in a fresh run).
+  virtual void record(double /*t*/, std::span<const double> /*y*/) {}
+  // A watched contact slipped or stuck (root finding, in time order).
+  virtual void event(const Event& /*e*/) {}
+  // Only recorders that want them get every accepted step (it costs a callback per step).
+  virtual bool wants_steps() const { return false; }
+  virtual void step(const StepRecord& /*r*/) {}
+  // Everything recorded so far reaches the file (a crash or a checkpoint).
+  virtual void flush() {}
+  // The run reached t_end and passed the energy audit: final files, and
+  // this output's part of summary.json. Called after flush().
+  virtual void finish(double /*t_end*/, std::span<const double> /*y*/,
+                      nlohmann::json& /*summary*/) {}
+};
+
+// The contact ids a [output] traces / events selection names.
+std::vector<int> selected_contacts(ContactSelection which, const std::vector<int>& ids,
+                                   std::size_t contacts);
+
+// The recorders the case asks for, their files opened (or, on a restart, cut
+// back to resume_at and reopened for appending). OutputError if a file
+// cannot be opened.
+std::vector<std::unique_ptr<Recorder>> make_recorders(const RecorderSetup& setup);
+
+// Every file a recorder may write, whatever the case asks for: a directory
+// holding one holds results, and --overwrite removes them all (no stale
+// traces.csv from an earlier run that traced).
+std::vector<std::string> recorder_files();
+
+}  // namespace stickslip
