@@ -2,10 +2,10 @@
 """Finite-size asperities (cases/patch_size.toml, MODEL.md §14): how the
 block-scale stick-slip changes as each contact grows to an R×R patch of nodes.
 
-Usage: /usr/bin/python3 plots/patch_size.py SWEEP_DIR
-       -> SWEEP_DIR/patch_size.csv, SWEEP_DIR/patch_size.png and .pdf
+Usage: /usr/bin/python3 plots/patch_size.py SWEEP_DIR [SWEEP_DIR...]
+       -> the first SWEEP_DIR/patch_size.csv, patch_size.png and .pdf
 
-Reads SWEEP_DIR/sweep.csv (stickslip sweep) for the finished points and each
+Reads each SWEEP_DIR/sweep.csv (stickslip sweep) for the finished points and each
 point's summary.json for μ over whole cycles of F_f (mu_whole_cycles, μ over
 the window where a run has no whole cycle) and F_f_spread (sd/mean of F_f in
 the averaging window: the size of the block-scale stick-slip). Per patch size
@@ -102,13 +102,17 @@ def drop(by_coverage):
 
 
 def main() -> int:
-    if len(sys.argv) != 2:
-        print("usage: /usr/bin/python3 plots/patch_size.py SWEEP_DIR\n"
-              "  mu and F_f's spread against the patch size R -> SWEEP_DIR/patch_size.png, .pdf, .csv",
-              file=sys.stderr)
+    if len(sys.argv) < 2:
+        print("usage: /usr/bin/python3 plots/patch_size.py SWEEP_DIR [SWEEP_DIR...]\n"
+              "  mu and F_f's spread against the patch size R, the sweeps' points together\n"
+              "  -> the first SWEEP_DIR/patch_size.png, .pdf, .csv", file=sys.stderr)
         return 2
     sweep_dir = Path(sys.argv[1])
-    points, shapes = read_points(sweep_dir)
+    points, shapes = [], set()
+    for d in sys.argv[1:]:
+        more, more_shapes = read_points(Path(d))
+        points += more
+        shapes |= more_shapes
     table = tabulate(points)
     sizes = sorted(table)
     coverages = sorted({c for by_c in table.values() for c in by_c})
