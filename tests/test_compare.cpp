@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "stickslip/analysis/compare.hpp"
+#include "stickslip/output/summary.hpp"
 
 namespace fs = std::filesystem;
 using namespace stickslip;
@@ -62,12 +63,20 @@ struct TempDir {
   TempDir& operator=(const TempDir&) = delete;
 };
 
+// A run's summary.json with the fields compare reads; the rest as a run that
+// did nothing would have them.
+nlohmann::json summary_json(double mu, double t_end = 5e-3) {
+  Summary s;
+  s.mu = mu;
+  s.t_end = t_end;
+  s.average_from = 1e-3;
+  s.case_json = {{"run", {{"t_end", t_end}, {"average_from", 1e-3}}}};
+  return to_json(s);
+}
+
 void write_summary(const fs::path& dir, double mu, double t_end = 5e-3) {
   fs::create_directories(dir);
-  const nlohmann::json j = {{"mu", mu},
-                            {"t_end", t_end},
-                            {"case", {{"run", {{"t_end", t_end}, {"average_from", 1e-3}}}}}};
-  spit(dir / "summary.json", j.dump(2));
+  spit(dir / "summary.json", summary_json(mu, t_end).dump(2));
 }
 
 // traces.csv with columns vx_0, vy_0 sampled from f0, f1 at t = t0, t0 + dt, … (n rows).
@@ -368,12 +377,22 @@ TEST_CASE("compare: bad input is a CompareError, exit code 2, one line naming th
     expect_bad(b.string());
   }
   SECTION("summary without mu") {
-    spit(b / "summary.json", R"({"case": {"run": {"t_end": 5e-3}}})");
-    expect_bad("\"mu\"");
+    auto j = summary_json(0.4);
+    j.erase("mu");
+    spit(b / "summary.json", j.dump());
+    expect_bad("summary.json: not a run summary: no \"mu\"");
   }
-  SECTION("summary without case.run.t_end") {
-    spit(b / "summary.json", R"({"mu": 0.4})");
-    expect_bad("t_end");
+  SECTION("summary without t_end") {
+    auto j = summary_json(0.4);
+    j.erase("t_end");
+    spit(b / "summary.json", j.dump());
+    expect_bad("no \"t_end\"");
+  }
+  SECTION("summary with a malformed events block") {
+    auto j = summary_json(0.4);
+    j["events"] = {{"count", 2}, {"window", {1e-3, 5e-3}}, {"per_contact", {{{"contact", 0}}}}};
+    spit(b / "summary.json", j.dump());
+    expect_bad("events: no \"slips\"");
   }
   SECTION("summary not JSON") {
     spit(b / "summary.json", "mu = 0.4\n");

@@ -13,6 +13,7 @@
 #include <system_error>
 #include <utility>
 
+#include "stickslip/output/summary.hpp"
 #include "stickslip/output/writers.hpp"
 
 namespace stickslip {
@@ -113,36 +114,22 @@ std::ptrdiff_t column_index(const Csv& csv, const fs::path& file, const std::str
   return it - csv.header.begin();
 }
 
-struct Summary {
-  double mu = 0.0;
-  double t_end = 0.0;
-};
-
-Summary read_summary(const fs::path& dir) {
+// The run's summary.json (output/summary.hpp), or CompareError naming the
+// directory or file and what is wrong with it.
+Summary run_summary(const fs::path& dir) {
   std::error_code ec;
   if (!fs::exists(dir, ec)) fail(dir, "no such directory");
   if (!fs::is_directory(dir, ec)) fail(dir, "not a directory");
-  const fs::path file = dir / "summary.json";
+  const fs::path file = dir / kSummaryFile;
   if (!fs::exists(file, ec)) fail(file, "no such file (not a run's output directory?)");
-  std::ifstream in(file, std::ios::binary);
-  if (!in) fail(file, "cannot open for reading");
-  nlohmann::json j;
+  std::optional<Summary> s;
   try {
-    in >> j;
-  } catch (const nlohmann::json::exception& e) {
-    fail(file, std::string("invalid JSON: ") + e.what());
+    s = read_summary(dir);
+  } catch (const OutputError& e) {
+    throw CompareError(e.what());
   }
-  Summary s;
-  if (!j.is_object() || !j.contains("mu") || !j["mu"].is_number())
-    fail(file, "\"mu\" is missing or not a number");
-  s.mu = j["mu"].get<double>();
-  const nlohmann::json* t_end = nullptr;
-  if (j.contains("case") && j["case"].is_object() && j["case"].contains("run") &&
-      j["case"]["run"].is_object() && j["case"]["run"].contains("t_end"))
-    t_end = &j["case"]["run"]["t_end"];
-  if (!t_end || !t_end->is_number()) fail(file, "\"case.run.t_end\" is missing or not a number");
-  s.t_end = t_end->get<double>();
-  return s;
+  if (!s) fail(file, "not complete JSON (a run still writing it, or killed while it did)");
+  return *s;
 }
 
 bool present(const fs::path& file) {
@@ -345,8 +332,8 @@ CompareResult compare_runs(const fs::path& dir_a, const fs::path& dir_b, double 
   r.dir_a = dir_a;
   r.dir_b = dir_b;
   r.rtol = rtol;
-  const Summary a = read_summary(dir_a);
-  const Summary b = read_summary(dir_b);
+  const Summary a = run_summary(dir_a);
+  const Summary b = run_summary(dir_b);
   r.mu_a = a.mu;
   r.mu_b = b.mu;
   r.t_end_a = a.t_end;

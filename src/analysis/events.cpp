@@ -263,4 +263,52 @@ nlohmann::json to_json(const Synchronization& s) {
           {"xcorr_lag", number_or_null(s.xcorr_lag)}};
 }
 
+namespace {
+
+const nlohmann::json& field(const nlohmann::json& j, const char* name) {
+  if (!j.is_object() || !j.contains(name))
+    throw std::invalid_argument(std::string("no \"") + name + "\"");
+  return j[name];
+}
+
+double number_or_nan(const nlohmann::json& j, const char* name) {
+  const auto& x = field(j, name);
+  if (x.is_null()) return std::numeric_limits<double>::quiet_NaN();
+  if (!x.is_number()) throw std::invalid_argument(std::string("\"") + name + "\" is not a number");
+  return x.get<double>();
+}
+
+std::optional<double> optional_number(const nlohmann::json& j, const char* name) {
+  const double x = number_or_nan(j, name);
+  return std::isnan(x) ? std::nullopt : std::optional<double>(x);
+}
+
+}  // namespace
+
+ContactEventStats contact_statistics_from_json(const nlohmann::json& j) {
+  ContactEventStats s;
+  s.contact = static_cast<int>(number_or_nan(j, "contact"));
+  s.slips = static_cast<long>(number_or_nan(j, "slips"));
+  s.mean_recurrence = number_or_nan(j, "mean_recurrence");
+  s.std_recurrence = number_or_nan(j, "std_recurrence");
+  s.mean_slip_duration = number_or_nan(j, "mean_slip_duration");
+  s.slipping_fraction = number_or_nan(j, "slipping_fraction");
+  return s;
+}
+
+Synchronization synchronization_from_json(const nlohmann::json& j) {
+  Synchronization s;
+  s.contact_a = static_cast<int>(number_or_nan(j, "contact_a"));
+  s.contact_b = static_cast<int>(number_or_nan(j, "contact_b"));
+  s.slip_rate_ratio = number_or_nan(j, "slip_rate_ratio");
+  s.lag_mean = number_or_nan(j, "lag_mean");
+  s.lag_min = number_or_nan(j, "lag_min");
+  s.lag_max = number_or_nan(j, "lag_max");
+  s.window = number_or_nan(j, "window");
+  s.coincident_fraction = number_or_nan(j, "coincident_fraction");
+  s.xcorr_peak = optional_number(j, "xcorr_peak");
+  s.xcorr_lag = optional_number(j, "xcorr_lag");
+  return s;
+}
+
 }  // namespace stickslip

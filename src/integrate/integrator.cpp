@@ -88,4 +88,19 @@ std::unique_ptr<Integrator> make_integrator(const System& system, const SolverPa
   return std::make_unique<ArkStepIntegrator>(system, chosen, y0, t0, t_stop, std::move(options));
 }
 
+SolverStats& operator+=(SolverStats& a, const SolverStats& b) {
+  a.steps += b.steps;
+  a.step_attempts += b.step_attempts;
+  a.rhs_explicit += b.rhs_explicit;
+  a.rhs_implicit += b.rhs_implicit;
+  a.newton_iterations += b.newton_iterations;
+  a.convergence_failures += b.convergence_failures;
+  a.linear_setups += b.linear_setups;
+  a.jacobian_evaluations += b.jacobian_evaluations;
+  a.error_test_failures += b.error_test_failures;
+  a.root_evaluations += b.root_evaluations;
+  if (b.last_step != 0.0) a.last_step = b.last_step;
+  return a;
+}
+
 }  // namespace stickslip

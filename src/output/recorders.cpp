@@ -63,19 +63,15 @@ class FrictionRecorder final : public Recorder {
     csv_.row(t, row);
   }
   void flush() override { csv_.flush(); }
-  void finish(double, std::span<const double>, nlohmann::json& summary) override {
+  void finish(double, std::span<const double>, Summary& summary) override {
     const TraceTable series = read_traces_csv(file_);  // t, F_f, mu_inst
     const auto& t = series.t;
-    summary["mu_whole_cycles"] = nullptr;
-    summary["F_f_spread"] = nullptr;
     if (std::count_if(t.begin(), t.end(), [&](double ti) { return ti >= average_from_; }) < 2)
       return;
     const CycleMean cycles = whole_cycle_mean(t, series.values[0], average_from_);
-    summary["mu_whole_cycles"] = {{"mu", cycles.mean / normal_force_},
-                                  {"from", cycles.from},
-                                  {"to", cycles.to},
-                                  {"crossings", cycles.crossings}};
-    summary["F_f_spread"] = relative_spread(t, series.values[0], average_from_);
+    summary.mu_whole_cycles =
+        WholeCycleMu{cycles.mean / normal_force_, cycles.from, cycles.to, cycles.crossings};
+    summary.F_f_spread = relative_spread(t, series.values[0], average_from_);
   }
 
  private:
@@ -177,21 +173,20 @@ class EventsRecorder final : public Recorder {
     csv_.line(line);
   }
   void flush() override { csv_.flush(); }
-  void finish(double t_end, std::span<const double>, nlohmann::json& summary) override {
+  void finish(double t_end, std::span<const double>, Summary& summary) override {
     const double t_avg = c_.run.average_from;
-    nlohmann::json per_contact = nlohmann::json::array();
+    EventSummary events{static_cast<long>(events_.size()), t_avg, t_end, {}};
     for (int id : watched_)
-      per_contact.push_back(to_json(contact_statistics(
-          events_, id, slipping_at_start_[static_cast<std::size_t>(id)], t_avg, t_end)));
-    summary["events"] = {
-        {"count", events_.size()}, {"window", {t_avg, t_end}}, {"per_contact", per_contact}};
+      events.per_contact.push_back(contact_statistics(
+          events_, id, slipping_at_start_[static_cast<std::size_t>(id)], t_avg, t_end));
+    summary.events = std::move(events);
     if (!pair_) return;
     const auto& contacts = system_.contacts();
     const double window = travel_time(system_, contacts[static_cast<std::size_t>(pair_->first)],
                                       contacts[static_cast<std::size_t>(pair_->second)]);
     // Only the averaging window is correlated: the start from rest is a transient.
-    summary["synchronization"] = to_json(synchronization(
-        events_, pair_->first, pair_->second, window, t_avg, t_end, pair_t_, pair_va_, pair_vb_));
+    summary.synchronization = synchronization(events_, pair_->first, pair_->second, window, t_avg,
+                                              t_end, pair_t_, pair_va_, pair_vb_);
   }
 
  private:
@@ -267,7 +262,7 @@ class FinalStateRecorder final : public Recorder {
  public:
   static constexpr const char* kFile = "final_state.csv";
   explicit FinalStateRecorder(const RecorderSetup& s) : system_(s.system), dir_(s.dir) {}
-  void finish(double t_end, std::span<const double> y, nlohmann::json&) override {
+  void finish(double t_end, std::span<const double> y, Summary&) override {
     CsvWriter state(dir_ / kFile,
                     {"t", "ix", "iy", "iz", "u_x", "u_y", "u_z", "w_x", "w_y", "w_z"});
     state.full_precision();

@@ -92,8 +92,7 @@ namespace {
 // `stickslip compare` leaves in a run's directory.
 std::vector<std::string> result_files() {
   std::vector<std::string> files = recorder_files();
-  for (const char* name : {"summary.json", "compare.json", kCheckpointFile})
-    files.emplace_back(name);
+  for (const char* name : {kSummaryFile, "compare.json", kCheckpointFile}) files.emplace_back(name);
   return files;
 }
 }  // namespace
@@ -105,7 +104,7 @@ RunResult run_case(const Case& c, const RunOptions& options) {
   // recorder cuts its output back to the checkpoint's time.
   std::optional<Checkpoint> resume;
   if (options.restart) {
-    if (std::filesystem::exists(dir / "summary.json"))
+    if (std::filesystem::exists(dir / kSummaryFile))
       throw OutputError(dir.string() + ": the run there has finished (summary.json exists)");
     resume = read_checkpoint(dir);
     if (restart_identity(resume->case_json) != restart_identity(to_json(c)))
@@ -298,27 +297,26 @@ RunResult run_case(const Case& c, const RunOptions& options) {
   }
   result.wall_seconds = seconds_since(wall_start);
 
-  nlohmann::json solver_description = integrator->description();
+  Summary summary;
+  summary.mu = result.mu;
+  summary.theta = result.theta;
+  summary.F_N = normal_force;
+  summary.contacts = static_cast<long>(result.contacts);
+  summary.t_end = t_end;
+  summary.average_from = t_avg;
+  summary.wall_seconds = result.wall_seconds;
+  summary.energy_residual = result.energy_residual;
+  summary.energy_audit_bound = audit_bound;
+  summary.steady_sliding_mu = system.steady_sliding_mu();
+  summary.solver = integrator->description();
   if (c.solver.method == Method::automatic)
-    solver_description["chosen_by"] = choose_method(system, c.solver).reason;
-  nlohmann::json summary = {
-      {"mu", result.mu},
-      {"theta", result.theta},
-      {"F_N", normal_force},
-      {"contacts", result.contacts},
-      {"t_end", t_end},
-      {"average_from", t_avg},
-      {"wall_seconds", result.wall_seconds},
-      {"energy_residual", result.energy_residual},
-      {"energy_audit_bound", audit_bound},
-      {"steady_sliding_mu", system.steady_sliding_mu()},
-      {"solver", solver_description},
-      {"solver_stats", result.stats},
-      {"provenance", {{"git_commit", kGitCommit}, {"sundials_version", SUNDIALS_VERSION}}},
-      {"case", to_json(c)},
-  };
+    summary.solver["chosen_by"] = choose_method(system, c.solver).reason;
+  summary.solver_stats = result.stats;
+  summary.git_commit = kGitCommit;
+  summary.sundials_version = SUNDIALS_VERSION;
+  summary.case_json = to_json(c);
   for (const auto& r : recorders) r->finish(t_end, y, summary);
-  write_json_atomically(dir / "summary.json", summary);
+  write_summary(dir, summary);
   // The run is complete: its checkpoint has nothing left to resume.
   std::filesystem::remove(dir / kCheckpointFile);
   return result;

@@ -20,6 +20,7 @@
 
 #include "stickslip/case/reader.hpp"
 #include "stickslip/output/checkpoint.hpp"
+#include "stickslip/output/summary.hpp"
 #include "stickslip/output/writers.hpp"
 #include "stickslip/version.hpp"
 
@@ -33,16 +34,6 @@ namespace fs = std::filesystem;
 volatile std::sig_atomic_t g_sweep_signal = 0;
 extern "C" void request_sweep_stop(int sig) {
   g_sweep_signal = sig;
-}
-
-std::optional<nlohmann::json> read_summary(const fs::path& dir) {
-  std::ifstream in(dir / "summary.json");
-  if (!in) return std::nullopt;
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception&) {
-    return std::nullopt;  // cut short: not a finished point
-  }
 }
 
 // The last non-empty line of a point's run.log: why it failed.
@@ -61,18 +52,15 @@ std::string csv_field(std::string s) {
   return out + "\"";
 }
 
-std::string number(const nlohmann::json& j) {
-  if (!j.is_number()) return "";
+// 10 digits; empty where not defined.
+std::string number(double x) {
+  if (!std::isfinite(x)) return "";
   char buf[32];
-  std::snprintf(buf, sizeof buf, "%.10g", j.get<double>());
+  std::snprintf(buf, sizeof buf, "%.10g", x);
   return buf;
 }
-
-// μ over whole cycles of F_f (analysis/cycles.hpp); empty for summaries
-// written before it existed.
-std::string whole_cycle_mu(const nlohmann::json& summary) {
-  const auto it = summary.find("mu_whole_cycles");
-  return it != summary.end() && it->is_object() ? number((*it)["mu"]) : std::string();
+std::string number(const std::optional<double>& x) {
+  return x ? number(*x) : std::string();
 }
 
 // Starts `stickslip run` for one point, its output in <dir>/run.log.
@@ -138,19 +126,23 @@ const char* to_string(PointState s) {
 }
 
 PointState point_state(const SweepPoint& point, const fs::path& dir, std::string* why) {
-  const auto summary = read_summary(dir);
+  std::optional<Summary> summary;
+  try {
+    summary = read_summary(dir);
+  } catch (const OutputError& e) {
+    // Complete but not a summary this code writes: an older version's.
+    if (why) *why = e.what();
+    return PointState::stale;
+  }
   if (!summary) {
     if (fs::exists(dir / "failed")) return PointState::failed;
     return fs::exists(dir / "friction.csv") ? PointState::incomplete : PointState::absent;
   }
-  const auto commit =
-      summary->value(nlohmann::json::json_pointer("/provenance/git_commit"), std::string());
-  if (commit != kGitCommit) {
-    if (why) *why = "computed by code version " + commit + ", this is " + kGitCommit;
+  if (summary->git_commit != kGitCommit) {
+    if (why) *why = "computed by code version " + summary->git_commit + ", this is " + kGitCommit;
     return PointState::stale;
   }
-  if (!summary->contains("case") ||
-      restart_identity((*summary)["case"]) != restart_identity(to_json(point.c))) {
+  if (restart_identity(summary->case_json) != restart_identity(to_json(point.c))) {
     if (why) *why = "computed for a different case (the base case or [set] changed)";
     return PointState::stale;
   }
@@ -159,14 +151,14 @@ PointState point_state(const SweepPoint& point, const fs::path& dir, std::string
 
 std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>& points,
                                const fs::path& out_dir) {
-  std::vector<std::optional<nlohmann::json>> summaries;
+  std::vector<std::optional<Summary>> summaries;
   std::vector<PointState> states;
   bool any_sync = false;
   for (const auto& p : points) {
     const fs::path dir = out_dir / p.name;
     states.push_back(point_state(p, dir));
     summaries.push_back(states.back() == PointState::finished ? read_summary(dir) : std::nullopt);
-    any_sync = any_sync || (summaries.back() && summaries.back()->contains("synchronization"));
+    any_sync = any_sync || (summaries.back() && summaries.back()->synchronization);
   }
 
   std::ostringstream table;
@@ -193,33 +185,36 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
       continue;
     }
     ++finished;
-    const auto& s = *summaries[i];
+    const Summary& s = *summaries[i];
     // Slip statistics over the watched contacts: total slips, mean recurrence
     // and slipping fraction averaged over the contacts that define them.
     long slips = 0;
     double recurrence = 0, fraction = 0;
     int n_rec = 0, n_frac = 0;
-    if (s.contains("events"))
-      for (const auto& c : s["events"]["per_contact"]) {
-        slips += c.value("slips", 0L);
-        if (c["mean_recurrence"].is_number())
-          recurrence += c["mean_recurrence"].get<double>(), ++n_rec;
-        if (c["slipping_fraction"].is_number())
-          fraction += c["slipping_fraction"].get<double>(), ++n_frac;
+    if (s.events)
+      for (const auto& c : s.events->per_contact) {
+        slips += c.slips;
+        if (std::isfinite(c.mean_recurrence)) recurrence += c.mean_recurrence, ++n_rec;
+        if (std::isfinite(c.slipping_fraction)) fraction += c.slipping_fraction, ++n_frac;
       }
-    table << ",finished," << number(s["mu"]) << ',' << whole_cycle_mu(s) << ','
-          << number(s["theta"]) << ',' << number(s["contacts"]) << ',' << number(s["F_N"]) << ','
-          << number(s["energy_residual"]) << ','
-          << (s.contains("events") ? std::to_string(slips) : "") << ','
+    table << ",finished," << number(s.mu) << ','
+          << (s.mu_whole_cycles ? number(s.mu_whole_cycles->mu) : "") << ',' << number(s.theta)
+          << ',' << s.contacts << ',' << number(s.F_N) << ',' << number(s.energy_residual) << ','
+          << (s.events ? std::to_string(slips) : "") << ','
           << (n_rec ? number(recurrence / n_rec) : "") << ','
           << (n_frac ? number(fraction / n_frac) : "");
-    if (any_sync)
-      for (const char* c : sync_columns)
-        table << ',' << (s.contains("synchronization") ? number(s["synchronization"][c]) : "");
-    const auto& st = s["solver_stats"];
-    table << ',' << number(st["steps"]) << ',' << number(st["rhs_explicit"]) << ','
-          << number(st["rhs_implicit"]) << ',' << number(s["wall_seconds"]) << ','
-          << s["provenance"]["git_commit"].get<std::string>() << ",\n";
+    if (any_sync) {
+      if (const auto& y = s.synchronization)
+        for (const auto& x : {number(y->slip_rate_ratio), number(y->lag_mean), number(y->lag_min),
+                              number(y->lag_max), number(y->coincident_fraction),
+                              number(y->xcorr_peak), number(y->xcorr_lag)})
+          table << ',' << x;
+      else
+        table << std::string(std::size(sync_columns), ',');
+    }
+    const SolverStats& st = s.solver_stats;
+    table << ',' << st.steps << ',' << st.rhs_explicit << ',' << st.rhs_implicit << ','
+          << number(s.wall_seconds) << ',' << s.git_commit << ",\n";
   }
   write_atomically(out_dir / "sweep.csv", [&](std::ostream& out) { out << table.str(); });
 
@@ -242,11 +237,10 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
     }
     if (!groups.count(key)) order.push_back(key);
     auto& g = groups[key];
-    if (summaries[i] && (*summaries[i])["mu"].is_number()) {
-      g.mu.push_back((*summaries[i])["mu"].get<double>());
-      g.theta.push_back((*summaries[i])["theta"].get<double>());
-      const std::string cycles = whole_cycle_mu(*summaries[i]);
-      if (!cycles.empty()) g.mu_cycles.push_back(std::stod(cycles));
+    if (summaries[i] && std::isfinite(summaries[i]->mu)) {
+      g.mu.push_back(summaries[i]->mu);
+      g.theta.push_back(summaries[i]->theta);
+      if (const auto& cycles = summaries[i]->mu_whole_cycles) g.mu_cycles.push_back(cycles->mu);
     }
   }
   auto num = [](double x) { return std::isfinite(x) ? number(x) : std::string(); };
@@ -370,8 +364,8 @@ SweepOutcome run_sweep(const Sweep& sweep, const std::vector<SweepPoint>& points
     if (code == 0) {
       const auto s = read_summary(dir);
       char buf[128];
-      std::snprintf(buf, sizeof buf, "mu = %.6f (%.1f s)", s ? (*s)["mu"].get<double>() : NAN,
-                    s ? (*s)["wall_seconds"].get<double>() : NAN);
+      std::snprintf(buf, sizeof buf, "mu = %.6f (%.1f s)", s ? s->mu : NAN,
+                    s ? s->wall_seconds : NAN);
       line += buf;
     } else if (code == 130 || code == 143) {
       line += "interrupted; a checkpoint is kept";

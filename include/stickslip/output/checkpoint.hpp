@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "stickslip/integrate/integrator.hpp"
+#include "stickslip/integrate/solver_stats.hpp"
 
 namespace stickslip {
 
@@ -34,7 +34,5 @@ Checkpoint read_checkpoint(const std::filesystem::path& dir);
 // The part of the resolved case that must match for a restart: everything but
 // where the case file and outputs live.
 nlohmann::json restart_identity(const nlohmann::json& case_json);
-
-SolverStats& operator+=(SolverStats& a, const SolverStats& b);
 
 }  // namespace stickslip

@@ -10,7 +10,6 @@
 
 #include <filesystem>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <optional>
 #include <span>
 #include <string>
@@ -20,6 +19,7 @@
 #include "stickslip/case/case.hpp"
 #include "stickslip/integrate/integrator.hpp"
 #include "stickslip/model/system.hpp"
+#include "stickslip/output/summary.hpp"
 
 namespace stickslip {
 
@@ -49,8 +49,7 @@ class Recorder {
   virtual void flush() {}
   // The run reached t_end and passed the energy audit: final files, and
   // this output's part of summary.json. Called after flush().
-  virtual void finish(double /*t_end*/, std::span<const double> /*y*/,
-                      nlohmann::json& /*summary*/) {}
+  virtual void finish(double /*t_end*/, std::span<const double> /*y*/, Summary& /*summary*/) {}
 };
 
 // The contact ids a [output] traces / events selection names.

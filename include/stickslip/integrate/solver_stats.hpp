@@ -1,0 +1,33 @@
+#pragma once
+// What an integrator reports of its work, accumulated over a run (and over
+// its restarts: a checkpoint carries the statistics so far).
+
+#include <nlohmann/json.hpp>
+
+namespace stickslip {
+
+struct SolverStats {
+  long steps = 0;
+  long step_attempts = 0;
+  long rhs_explicit = 0;       // evaluations of the explicit part (erk, rk4, imex)
+  long rhs_implicit = 0;       // evaluations of the implicit part (imex, dirk, bdf)
+  long newton_iterations = 0;  // imex: scalar iterations of the per-contact stage solves
+  long convergence_failures = 0;
+  long linear_setups = 0;
+  long jacobian_evaluations = 0;
+  long error_test_failures = 0;
+  long root_evaluations = 0;
+  double last_step = 0.0;
+};
+
+// JSON with one field per member, both ways (summary.json, checkpoints).
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(SolverStats, steps, step_attempts, rhs_explicit, rhs_implicit,
+                                   newton_iterations, convergence_failures, linear_setups,
+                                   jacobian_evaluations, error_test_failures, root_evaluations,
+                                   last_step)
+
+// The statistics of a run continued from a checkpoint: counts add up, the
+// last step is the later run's.
+SolverStats& operator+=(SolverStats& a, const SolverStats& b);
+
+}  // namespace stickslip

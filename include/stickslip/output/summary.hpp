@@ -1,0 +1,67 @@
+#pragma once
+// summary.json, typed: what a run reports (written by the run and its
+// recorders) and what sweeps and compare read back. One struct, one JSON
+// mapping both ways, so a field is named in one place. NaN and "not
+// defined" are null in the JSON and NaN / empty here.
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "stickslip/analysis/events.hpp"
+#include "stickslip/integrate/solver_stats.hpp"
+
+namespace stickslip {
+
+inline constexpr const char* kSummaryFile = "summary.json";
+
+// μ between the first and the last downward crossing of F_f through its
+// window mean (analysis/cycles.hpp).
+struct WholeCycleMu {
+  double mu = 0.0;
+  double from = 0.0, to = 0.0;  // [s]
+  long crossings = 0;
+};
+
+// Per-contact statistics of the watched contacts over the averaging window.
+struct EventSummary {
+  long count = 0;  // events of the whole run
+  double window_from = 0.0, window_to = 0.0;
+  std::vector<ContactEventStats> per_contact;
+};
+
+struct Summary {
+  double mu = 0.0;  // over [average_from, t_end], from the friction impulse
+  std::optional<WholeCycleMu> mu_whole_cycles;
+  std::optional<double> F_f_spread;  // sd/mean of F_f's samples in the window
+  double theta = 0.0;
+  double F_N = 0.0;  // [N]
+  long contacts = 0;
+  double t_end = 0.0, average_from = 0.0;  // [s]
+  double wall_seconds = 0.0;
+  double energy_residual = 0.0, energy_audit_bound = 0.0;
+  double steady_sliding_mu = 0.0;
+  nlohmann::json solver;  // the integrator's description: method, tolerances, tables
+  SolverStats solver_stats;
+  std::string git_commit, sundials_version;  // "provenance"
+  nlohmann::json case_json;                  // "case": the case as resolved
+  std::optional<EventSummary> events;
+  std::optional<Synchronization> synchronization;
+};
+
+nlohmann::json to_json(const Summary& s);
+// Throws std::invalid_argument naming the first field that is missing or of
+// the wrong type. Fields a summary of an older version lacks
+// (mu_whole_cycles, F_f_spread) are left empty.
+Summary summary_from_json(const nlohmann::json& j);
+
+// summary.json in `dir`, written atomically.
+void write_summary(const std::filesystem::path& dir, const Summary& s);
+// The summary in `dir`; std::nullopt when there is none or it is cut short
+// (a run still going, or killed while writing it). OutputError naming the
+// file and field when it is complete JSON but not a summary.
+std::optional<Summary> read_summary(const std::filesystem::path& dir);
+
+}  // namespace stickslip

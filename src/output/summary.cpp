@@ -1,0 +1,150 @@
+#include "stickslip/output/summary.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <stdexcept>
+
+#include "stickslip/output/writers.hpp"
+
+namespace stickslip {
+namespace {
+
+nlohmann::json number_or_null(double x) {
+  return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr);
+}
+
+const nlohmann::json& field(const nlohmann::json& j, const char* name) {
+  if (!j.is_object() || !j.contains(name))
+    throw std::invalid_argument(std::string("no \"") + name + "\"");
+  return j[name];
+}
+
+double number(const nlohmann::json& j, const char* name) {
+  const auto& x = field(j, name);
+  if (x.is_null()) return std::nan("");
+  if (!x.is_number()) throw std::invalid_argument(std::string("\"") + name + "\" is not a number");
+  return x.get<double>();
+}
+
+// A field that older summaries lack or that is null when not defined.
+const nlohmann::json* present(const nlohmann::json& j, const char* name) {
+  const auto it = j.find(name);
+  return it == j.end() || it->is_null() ? nullptr : &*it;
+}
+
+// Prefixes the name of the enclosing field to what went wrong inside it.
+template <class F>
+auto inside(const char* name, F&& read) {
+  try {
+    return read();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string(name) + ": " + e.what());
+  } catch (const nlohmann::json::exception& e) {
+    throw std::invalid_argument(std::string(name) + ": " + e.what());
+  }
+}
+
+}  // namespace
+
+nlohmann::json to_json(const Summary& s) {
+  nlohmann::json j = {
+      {"mu", number_or_null(s.mu)},
+      {"mu_whole_cycles", nullptr},
+      {"F_f_spread", s.F_f_spread ? number_or_null(*s.F_f_spread) : nlohmann::json()},
+      {"theta", s.theta},
+      {"F_N", s.F_N},
+      {"contacts", s.contacts},
+      {"t_end", s.t_end},
+      {"average_from", s.average_from},
+      {"wall_seconds", s.wall_seconds},
+      {"energy_residual", number_or_null(s.energy_residual)},
+      {"energy_audit_bound", s.energy_audit_bound},
+      {"steady_sliding_mu", number_or_null(s.steady_sliding_mu)},
+      {"solver", s.solver},
+      {"solver_stats", s.solver_stats},
+      {"provenance", {{"git_commit", s.git_commit}, {"sundials_version", s.sundials_version}}},
+      {"case", s.case_json},
+  };
+  if (const auto& c = s.mu_whole_cycles)
+    j["mu_whole_cycles"] = {
+        {"mu", c->mu}, {"from", c->from}, {"to", c->to}, {"crossings", c->crossings}};
+  if (const auto& e = s.events) {
+    nlohmann::json per_contact = nlohmann::json::array();
+    for (const auto& c : e->per_contact) per_contact.push_back(to_json(c));
+    j["events"] = {{"count", e->count},
+                   {"window", {e->window_from, e->window_to}},
+                   {"per_contact", per_contact}};
+  }
+  if (s.synchronization) j["synchronization"] = to_json(*s.synchronization);
+  return j;
+}
+
+Summary summary_from_json(const nlohmann::json& j) {
+  Summary s;
+  s.mu = number(j, "mu");
+  s.theta = number(j, "theta");
+  s.F_N = number(j, "F_N");
+  s.contacts = static_cast<long>(number(j, "contacts"));
+  s.t_end = number(j, "t_end");
+  s.average_from = number(j, "average_from");
+  s.wall_seconds = number(j, "wall_seconds");
+  s.energy_residual = number(j, "energy_residual");
+  s.energy_audit_bound = number(j, "energy_audit_bound");
+  s.steady_sliding_mu = number(j, "steady_sliding_mu");
+  s.solver = field(j, "solver");
+  s.solver_stats =
+      inside("solver_stats", [&] { return field(j, "solver_stats").get<SolverStats>(); });
+  const auto& provenance = field(j, "provenance");
+  inside("provenance", [&] {
+    s.git_commit = field(provenance, "git_commit").get<std::string>();
+    s.sundials_version = field(provenance, "sundials_version").get<std::string>();
+    return 0;
+  });
+  s.case_json = field(j, "case");
+  if (const auto* c = present(j, "mu_whole_cycles"))
+    s.mu_whole_cycles = inside("mu_whole_cycles", [&] {
+      return WholeCycleMu{number(*c, "mu"), number(*c, "from"), number(*c, "to"),
+                          static_cast<long>(number(*c, "crossings"))};
+    });
+  if (const auto* f = present(j, "F_f_spread")) {
+    if (!f->is_number()) throw std::invalid_argument("\"F_f_spread\" is not a number");
+    s.F_f_spread = f->get<double>();
+  }
+  if (const auto* e = present(j, "events"))
+    s.events = inside("events", [&] {
+      EventSummary events;
+      events.count = static_cast<long>(number(*e, "count"));
+      const auto& window = field(*e, "window");
+      events.window_from = window.at(0).get<double>();
+      events.window_to = window.at(1).get<double>();
+      for (const auto& c : field(*e, "per_contact"))
+        events.per_contact.push_back(contact_statistics_from_json(c));
+      return events;
+    });
+  if (const auto* sync = present(j, "synchronization"))
+    s.synchronization = inside("synchronization", [&] { return synchronization_from_json(*sync); });
+  return s;
+}
+
+void write_summary(const std::filesystem::path& dir, const Summary& s) {
+  write_json_atomically(dir / kSummaryFile, to_json(s));
+}
+
+std::optional<Summary> read_summary(const std::filesystem::path& dir) {
+  const auto file = dir / kSummaryFile;
+  std::ifstream in(file);
+  if (!in) return std::nullopt;
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception&) {
+    return std::nullopt;  // cut short
+  }
+  try {
+    return summary_from_json(j);
+  } catch (const std::invalid_argument& e) {
+    throw OutputError(file.string() + ": not a run summary: " + e.what());
+  }
+}
+
+}  // namespace stickslip
