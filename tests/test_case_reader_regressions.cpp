@@ -26,8 +26,7 @@ std::string refusal(const std::string& text, const std::vector<std::string>& set
 
 }  // namespace
 
-TEST_CASE("a non-ASCII character outside strings and comments is malformed TOML",
-          "[case][regression]") {
+TEST_CASE("a non-ASCII character outside strings and comments is malformed TOML", "[case][bugs]") {
   // Found by the fuzzer (minimized): '§' (U+00A7) after a value, and in a bare value
   // that toml++ reads through a quote.
   CHECK(refusal("[lattice]\nnx = 3 \xc2\xa7\n") ==
@@ -47,7 +46,7 @@ TEST_CASE("a non-ASCII character outside strings and comments is malformed TOML"
         "a string or comment");
 }
 
-TEST_CASE("a non-ASCII character after a backslash in a multi-line string", "[case][regression]") {
+TEST_CASE("a non-ASCII character after a backslash in a multi-line string", "[case][bugs]") {
   // An invalid escape: refused.
   CHECK(refusal("[output]\ndir = \"\"\"a\\\xc2\xa7\"\"\"\n") ==
         "fuzz.toml:2: malformed TOML: unknown escape sequence '\\\xc2\xa7' (U+00A7)");
@@ -64,7 +63,7 @@ TEST_CASE("a non-ASCII character after a backslash in a multi-line string", "[ca
   CHECK(d.interface.contacts.size() == 1);
 }
 
-TEST_CASE("nasty case files are refused cleanly", "[case][regression]") {
+TEST_CASE("nasty case files are refused cleanly", "[case][bugs]") {
   // toml++ asserts on this one in debug builds (upstream #294); release builds report it.
   CHECK_THAT(refusal("[&"), Contains("fuzz.toml:1: malformed TOML: "));
   // Deep nesting stops at toml++'s depth limit.

@@ -2,6 +2,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <random>
 
 #include "stickslip/model/system.hpp"
@@ -46,6 +47,13 @@ struct Fixture {
 // Per entry, not against the largest entry (~3e11 s⁻², the elastic terms):
 // that scale would hide an error in a damping term (~1e5 s⁻¹) or in the
 // u̇ = w rows (1).
+// The step: f is affine in every component but the contact sites' in-plane
+// velocities (the contact force depends on nothing else, MODEL.md §6), and
+// there a central difference is exact for any step, so the step is large
+// (1e-6 m, 1e-3 m/s) and the quotient's rounding far below every entry. With
+// the small steps the contact sites need (1e-7 of their speed), the rounding
+// of a row's elastic terms (~2e6 m/s²) came to ~40 s⁻¹ and hid a 0.1 % error
+// in a single damping entry (1e5 s⁻¹).
 template <class Rhs>
 double worst_entry_error(const System& s, const std::vector<double>& y, const SparseJacobian& jac,
                          Rhs rhs) {
@@ -66,8 +74,13 @@ double worst_entry_error(const System& s, const std::vector<double>& y, const Sp
   for (std::size_t r = 0; r < rows; ++r)
     for (auto k = jac.row_start[r]; k < jac.row_start[r + 1]; ++k)
       terms[r] += std::abs(jac.value[k] * y[static_cast<std::size_t>(jac.column[k])]);
+  std::vector<bool> nonlinear(rows, false);
+  for (const FrictionSite& site : s.sites())
+    for (int k = 0; k < 2; ++k) nonlinear[static_cast<std::size_t>(s.w_index(site.node, k))] = true;
   for (std::size_t j = 0; j < rows; ++j) {
-    const double h = 1e-7 * std::max(std::abs(y[j]), j < 3 * s.num_nodes() ? 1e-6 : 1e-4);
+    const double h = nonlinear[j]            ? 1e-7 * std::max(std::abs(y[j]), 1e-4)
+                     : j < 3 * s.num_nodes() ? 1e-6
+                                             : 1e-3;
     yp[j] = y[j] + h;
     ym[j] = y[j] - h;
     rhs(yp, fp);
@@ -92,6 +105,19 @@ SparseJacobian perturbed(const SparseJacobian& jac, Pick pick) {
     for (auto k = jac.row_start[r]; k < jac.row_start[r + 1]; ++k)
       if (pick(r, jac.column[k])) out.value[k] *= 1 + 1e-3;
   return out;
+}
+
+// The same Jacobian with the one entry (row, column) scaled by 1 + 1e-3;
+// nothing if the pattern lacks it.
+std::optional<SparseJacobian> one_entry_perturbed(const SparseJacobian& jac, std::int64_t row,
+                                                  std::int64_t column) {
+  SparseJacobian out = jac;
+  for (auto k = jac.row_start[row]; k < jac.row_start[row + 1]; ++k)
+    if (jac.column[k] == column) {
+      out.value[k] *= 1 + 1e-3;
+      return out;
+    }
+  return std::nullopt;
 }
 
 }  // namespace
@@ -119,6 +145,48 @@ TEST_CASE("full Jacobian matches finite differences", "[jacobian]") {
   CHECK(worst_entry_error(s, f.y, identity, rhs) > 10.0);
   CHECK(worst_entry_error(s, f.y, damping, rhs) > 10.0);
   CHECK(worst_entry_error(s, f.y, elastic, rhs) > 10.0);
+}
+
+TEST_CASE("a single entry 0.1 % wrong fails the check at every kind and scale of entry",
+          "[jacobian]") {
+  Fixture f;
+  const System& s = *f.system;
+  auto jac = s.jacobian_pattern(JacobianPart::full);
+  s.jacobian_values(f.y, jac);
+  auto rhs = [&](const auto& y, auto& out) { s.rhs(0.0, y, out); };
+  REQUIRE(worst_entry_error(s, f.y, jac, rhs) <= 1.0);  // measured: 0.05
+  // Nodes in the middle layer (iz = 1 of 3) and the top one (the drive's
+  // dashpot on the diagonal); contacts 0 and 1 sit at (0, 0) and (2, 1) of
+  // the bottom layer.
+  const std::int64_t mid = s.node(1, 1, 1), next = s.node(2, 1, 1), top = s.node(1, 1, 2);
+  const std::int64_t c0 = s.sites()[0].node, c1 = s.sites()[1].node;
+  struct Entry {
+    const char* what;
+    std::int64_t row, column;
+  };
+  // Measured with every other entry exact (worst error in units of the
+  // tolerance): 99.9 for the identity, the damping and the elastic entries,
+  // 98 and 49 for the contact blocks; the true Jacobian is at 0.05. With the
+  // small steps everywhere, a damping entry off the diagonal came out at
+  // 0.91 (unseen), the diagonal ones at 3.2 and 7.3.
+  for (const Entry& e : {
+           Entry{"u-dot = w: du_x/dt by w_x", s.u_index(mid, 0), s.w_index(mid, 0)},
+           Entry{"damping, diagonal (-6e5 1/s)", s.w_index(mid, 0), s.w_index(mid, 0)},
+           Entry{"damping, neighbour along x (1e5 1/s)", s.w_index(mid, 1), s.w_index(next, 1)},
+           Entry{"damping with the drive's dashpot, top node", s.w_index(top, 2),
+                 s.w_index(top, 2)},
+           Entry{"damping at a contact, z (no contact term)", s.w_index(c0, 2), s.w_index(c0, 2)},
+           Entry{"elastic, diagonal", s.w_index(mid, 0), s.u_index(mid, 0)},
+           Entry{"elastic, grad-div coupling x to y", s.w_index(mid, 0),
+                 s.u_index(s.node(2, 2, 1), 1)},
+           Entry{"contact block, xx with the damping", s.w_index(c0, 0), s.w_index(c0, 0)},
+           Entry{"contact block, xy", s.w_index(c1, 0), s.w_index(c1, 1)},
+       }) {
+    const auto wrong = one_entry_perturbed(jac, e.row, e.column);
+    INFO(e.what << ": " << s.describe_component(e.row) << " by " << s.describe_component(e.column));
+    REQUIRE(wrong.has_value());
+    CHECK(worst_entry_error(s, f.y, *wrong, rhs) > 10.0);
+  }
 }
 
 TEST_CASE("contact Jacobian matches finite differences of the implicit rhs", "[jacobian]") {

@@ -7,7 +7,9 @@
 //       with no summary.json;
 // and in both cases every CSV it wrote is free of nan/inf, and it never hangs
 // (every run has a max_steps cap, and a watchdog aborts the whole executable
-// with the run's name if one exceeds its wall-clock limit).
+// with the run's name if one exceeds its wall-clock limit). Every row also
+// says which of (a) and (b) its method does there today, so a method that
+// starts to stall, or a stop that turns into a finish, shows.
 //
 // "[stress]" is the cheap table run by ctest (label `stress`); "[.soak]" is the
 // whole matrix, hidden from ctest and run by scripts/soak, which also writes
@@ -51,6 +53,8 @@ namespace {
 constexpr double kResidualPerRtol = 100.0;
 constexpr double kDefaultRtol = 1e-6;
 
+// `either` is for a new row whose outcome is not known yet: run it, then
+// state the outcome it has.
 enum class Expect { finish, stop, either };
 
 struct Row {
@@ -265,7 +269,10 @@ void stress(const Row& row) {
   if (const char* report = std::getenv("STICKSLIP_STRESS_REPORT"); report && *report)
     std::ofstream(report, std::ios::app) << md.str() << '\n';
 
-  INFO("outcome: " << outcome);
+  INFO("outcome: " << outcome << "; expected: "
+                   << (row.expect == Expect::finish ? "finish"
+                       : row.expect == Expect::stop ? "stop"
+                                                    : "either"));
   // Nothing the run wrote may hold nan or inf, whether it finished or not.
   const auto bad = non_finite_field(dir, row.method == Method::rk4);
   INFO("non-finite field: " << bad.value_or("none"));
@@ -286,7 +293,7 @@ void stress(const Row& row) {
   fs::remove(dir.parent_path());  // only if empty
 }
 
-Row make(Method m, const std::string& regime_name, Expect expect = Expect::either) {
+Row make(Method m, const std::string& regime_name, Expect expect) {
   Row r;
   r.method = m;
   r.name = std::string(to_string(m)) + " / " + regime_name;
@@ -322,15 +329,19 @@ TEST_CASE("every method finishes or stops with a diagnostic (CI subset)", "[stre
     rows.push_back(r);
   }
   {
-    // Started from rest, dirk's steps shrink to ~1e-12 s (MODEL.md §12, as
-    // Radau did): capped, it must stop with a diagnostic rather than stall.
-    Row r = make(Method::dirk, "base");
+    // dirk stalled from rest (steps of ~1e-12 s, MODEL.md §12, as Radau did)
+    // while SUNDIALS' Newton ran on the contacts' stiffness; with the exact
+    // stage solves (a566598) it finishes the 1 ms in 75 steps, |R| 1.5e-6.
+    // The cap stays: a stall must stop with a diagnostic, and fail this row.
+    Row r = make(Method::dirk, "base", Expect::finish);
     r.max_steps = 2'000;
     r.wall_limit = 120;
     rows.push_back(r);
   }
   {
-    Row r = make(Method::erk, "base");  // stuck contacts: steps of ~1e-12 s
+    // Stuck contacts hold it to steps of ~8e-13 s (their stiffness, MODEL.md
+    // §6): the cap stops it at t = 1.7e-8 s.
+    Row r = make(Method::erk, "base", Expect::stop);
     r.max_steps = 20'000;
     r.wall_limit = 120;
     rows.push_back(r);
@@ -338,8 +349,8 @@ TEST_CASE("every method finishes or stops with a diagnostic (CI subset)", "[stre
   {
     // Stuck contacts near rest are stiff up to ~1e15 1/s (MODEL.md §6): rk4
     // keeps the audit within the bound only at h ≲ 1e-13 s (at 1e-12 it is
-    // off by 2e-2, at 1e-11 by ~2: docs/STABILITY.md).
-    Row r = make(Method::rk4, "base");
+    // off by 2e-2, at 1e-11 by ~2: docs/STABILITY.md). It finishes, |R| 1e-14.
+    Row r = make(Method::rk4, "base", Expect::finish);
     r.step = 1e-13;
     r.t_end = 2e-9;
     r.average_from = 0.0;
@@ -364,56 +375,85 @@ TEST_CASE("every method finishes or stops with a diagnostic (CI subset)", "[stre
 // slip is at ≈ 4.1 ms); bdf, dirk and erk 1 ms capped at 3e4, 2e3 and 5e4
 // steps (dirk and erk take steps of ~1e-12 s from rest); rk4 at h = 1e-13
 // over 5 ns.
+//
+// Each row's outcome is the one it had in the soak of this file's commit (3.8
+// min on one core, code 5b09bd7): the table of docs/STABILITY.md then, except
+// that dirk and bdf now solve their stages exactly (a566598), so dirk
+// finishes where it stalled and bdf where it hit its cap. Two rows finish
+// beyond the audit bound and fail the soak (dirk at v = 1e-6: R = −1.5e-4,
+// and −8 with atol_velocity 1e-7): findings, as STABILITY.md's bold rows,
+// whose run_case does not judge a residual below one absolute energy
+// tolerance (the work of 1 ms at v = 1e-6 is below it).
 TEST_CASE("soak: every method on every regime", "[.soak]") {
   std::vector<Row> rows;
-  auto custom = [](Method m, const std::string& name, std::function<void(Case&)> f) {
-    Row r = make(m, "base");
+  auto custom = [](Method m, const std::string& name, std::function<void(Case&)> f, Expect expect) {
+    Row r = make(m, "base", expect);
     r.name += name;
     r.regime = std::move(f);
     return r;
   };
+  // imex finishes everywhere but where atol_velocity = 0.1 v leaves the
+  // audit off by ~37 (refused, as in the CI subset).
   for (const auto& [name, f] : regimes()) {
-    Row r = make(Method::imex, name);
+    Row r = make(Method::imex, name, name == "v=1e-6,atol_v=1e-7" ? Expect::stop : Expect::finish);
     r.t_end = 5e-3;
     r.average_from = 1e-3;
     rows.push_back(r);
   }
-  // bdf stalls on some regimes at ~0.5 ms per step: 1 ms, capped at 3e4 steps.
+  // bdf stalled on some regimes at ~0.5 ms per step: 1 ms, capped at 3e4
+  // steps. It now finishes everywhere (33–11 087 steps, |R| ≤ 1.9e-5).
   for (const auto& [name, f] : regimes()) {
-    Row r = make(Method::bdf, name);
+    Row r = make(Method::bdf, name, Expect::finish);
     r.max_steps = 30'000;
     rows.push_back(r);
   }
   // The bound scales with rtol: the residual should too (atol scaled with it).
+  // At rtol 1e-8 the 5 ms need more than the 2e5 steps (the cap stops it
+  // at 4.2 ms); 1e-4 finishes with R = 8e-5.
   for (double rtol : {1e-4, 1e-8}) {
     std::ostringstream name;
     name << ", rtol=" << rtol;
-    Row r = custom(Method::imex, name.str(), [rtol](Case& c) {
-      c.solver.rtol = rtol;
-      c.solver.atol_displacement *= rtol / 1e-6;
-      c.solver.atol_velocity *= rtol / 1e-6;
-    });
+    Row r = custom(
+        Method::imex, name.str(),
+        [rtol](Case& c) {
+          c.solver.rtol = rtol;
+          c.solver.atol_displacement *= rtol / 1e-6;
+          c.solver.atol_velocity *= rtol / 1e-6;
+        },
+        rtol < 1e-6 ? Expect::stop : Expect::finish);
     r.t_end = 5e-3;
     r.average_from = 1e-3;
     rows.push_back(r);
   }
+  // dirk finishes (17–1818 steps) but at ε = 0.1 and 1, where its audit is
+  // off by 1.4e-4 and 1.4e-3 against the bound 1e-4 and the run is refused.
+  // (ε = 0.1 is only 1.4 times over: a change of step sequence may bring it
+  // under, and this row should then be looked at, not loosened.)
   for (const auto& [name, f] : regimes()) {
-    Row r = make(Method::dirk, name);
+    Row r = make(Method::dirk, name,
+                 name == "eps=0.1" || name == "eps=1" ? Expect::stop : Expect::finish);
     r.max_steps = 2'000;
     rows.push_back(r);
   }
   {
-    Row r = custom(Method::dirk, ", order 2", [](Case& c) { c.solver.order = 2; });
+    Row r = custom(
+        Method::dirk, ", order 2", [](Case& c) { c.solver.order = 2; }, Expect::finish);
     r.max_steps = 2'000;
     rows.push_back(r);
   }
+  // erk is held to steps of 7e-15–7e-12 s everywhere and stops at its cap;
+  // without bulk damping the error test gives up at 2.1e-7 s.
   for (const auto& [name, f] : regimes()) {
-    Row r = make(Method::erk, name);
+    Row r = make(Method::erk, name, Expect::stop);
     r.max_steps = 50'000;
     rows.push_back(r);
   }
+  // rk4 at 1e-13 s keeps the audit exact (|R| ≤ 6e-11) but where the
+  // contacts are stiffer: ε = 0.1 and 1 (R = 0.11, 167) and spread = 2 (the
+  // slowest v* 1e-5 m/s, R = 1.6e-3), refused.
   for (const auto& [name, f] : regimes()) {
-    Row r = make(Method::rk4, name);
+    const bool stiffer = name == "eps=0.1" || name == "eps=1" || name == "spread=2";
+    Row r = make(Method::rk4, name, stiffer ? Expect::stop : Expect::finish);
     r.step = 1e-13;
     r.t_end = 5e-9;  // 5e4 steps
     r.average_from = 0.0;
@@ -422,7 +462,9 @@ TEST_CASE("soak: every method on every regime", "[.soak]") {
   for (double h : {1e-12, 1e-11}) {
     std::ostringstream name;
     name << ", h = " << h;
-    Row r = custom(Method::rk4, name.str(), [](Case&) {});
+    // R = 2.5e-2 and 1.2: refused.
+    Row r = custom(
+        Method::rk4, name.str(), [](Case&) {}, Expect::stop);
     r.step = h;
     r.t_end = 5e4 * h;  // 5e4 steps
     r.average_from = 0.0;
@@ -430,7 +472,12 @@ TEST_CASE("soak: every method on every regime", "[.soak]") {
   }
   {
     // ~45 ms per step (2.2e5 unknowns, 1800 contacts): capped at 5e3 steps.
-    Row r = custom(Method::imex, ", 60x60x10", [](Case& c) { c.lattice = {60, 60, 10, 1e-4}; });
+    Row r = custom(
+        Method::imex, ", 60x60x10",
+        [](Case& c) {
+          c.lattice = {60, 60, 10, 1e-4};
+        },
+        Expect::finish);
     r.t_end = 2e-4;
     r.average_from = 0.0;
     r.max_steps = 5'000;
@@ -438,7 +485,8 @@ TEST_CASE("soak: every method on every regime", "[.soak]") {
     rows.push_back(r);
   }
   {
-    Row r = custom(Method::imex, ", 30 ms", [](Case&) {});
+    Row r = custom(
+        Method::imex, ", 30 ms", [](Case&) {}, Expect::finish);
     r.t_end = 3e-2;
     r.average_from = 5e-3;
     r.wall_limit = 900;
