@@ -84,6 +84,8 @@ TEST_CASE("a sweep runs every combination once, and started again only what is u
     const fs::path dir = out / rows[i + 1][0];
     const auto summary = nlohmann::json::parse(slurp(dir / "summary.json"));
     CHECK(std::stod(rows[i + 1][mu]) == Approx(summary["mu"].get<double>()).epsilon(1e-9));
+    CHECK(std::stod(rows[i + 1][column(rows, "F_f_spread")]) ==
+          Approx(summary["F_f_spread"].get<double>()).epsilon(1e-9));
     CHECK(summary["case"]["interface"]["coverage"].get<double>() == std::stod(expected[i].first));
     CHECK(summary["case"]["interface"]["seed"].get<int>() == std::stoi(expected[i].second));
   }

@@ -164,7 +164,8 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
   std::ostringstream table;
   table << "point";
   for (const auto& a : sweep.axes) table << ',' << a.key;
-  table << ",status,mu,mu_whole_cycles,theta,contacts,F_N,energy_residual,slips,mean_recurrence,"
+  table << ",status,mu,mu_whole_cycles,F_f_spread,theta,contacts,F_N,energy_residual,slips,mean_"
+           "recurrence,"
            "slipping_fraction";
   const char* const sync_columns[] = {"slip_rate_ratio",     "lag_mean",   "lag_min",  "lag_max",
                                       "coincident_fraction", "xcorr_peak", "xcorr_lag"};
@@ -180,7 +181,7 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
     const fs::path dir = out_dir / p.name;
     if (!summaries[i]) {
       const PointState state = states[i];
-      table << ',' << to_string(state) << std::string(any_sync ? 22 : 15, ',')
+      table << ',' << to_string(state) << std::string(any_sync ? 23 : 16, ',')
             << csv_field(state == PointState::failed ? last_line(dir / "run.log") : "") << '\n';
       continue;
     }
@@ -198,9 +199,9 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
         if (std::isfinite(c.slipping_fraction)) fraction += c.slipping_fraction, ++n_frac;
       }
     table << ",finished," << number(s.mu) << ','
-          << (s.mu_whole_cycles ? number(s.mu_whole_cycles->mu) : "") << ',' << number(s.theta)
-          << ',' << s.contacts << ',' << number(s.F_N) << ',' << number(s.energy_residual) << ','
-          << (s.events ? std::to_string(slips) : "") << ','
+          << (s.mu_whole_cycles ? number(s.mu_whole_cycles->mu) : "") << ',' << number(s.F_f_spread)
+          << ',' << number(s.theta) << ',' << s.contacts << ',' << number(s.F_N) << ','
+          << number(s.energy_residual) << ',' << (s.events ? std::to_string(slips) : "") << ','
           << (n_rec ? number(recurrence / n_rec) : "") << ','
           << (n_frac ? number(fraction / n_frac) : "");
     if (any_sync) {
