@@ -134,7 +134,7 @@ class EventsRecorder final : public Recorder {
   static constexpr const char* kFile = "events.csv";
   explicit EventsRecorder(const RecorderSetup& s)
       : system_(s.system),
-        c_(s.c),
+        average_from_(s.c.run.average_from),
         watched_(s.watched),
         csv_(open_table(s, kFile, {"t", "contact", "kind", "speed", "force"})) {
     for (std::size_t i = 0; i < s.system.contacts().size(); ++i)
@@ -174,7 +174,7 @@ class EventsRecorder final : public Recorder {
   }
   void flush() override { csv_.flush(); }
   void finish(double t_end, std::span<const double>, Summary& summary) override {
-    const double t_avg = c_.run.average_from;
+    const double t_avg = average_from_;
     EventSummary events{static_cast<long>(events_.size()), t_avg, t_end, {}};
     for (int id : watched_)
       events.per_contact.push_back(contact_statistics(
@@ -191,7 +191,7 @@ class EventsRecorder final : public Recorder {
 
  private:
   const System& system_;
-  const Case& c_;
+  double average_from_;
   std::vector<int> watched_;
   CsvWriter csv_;
   std::vector<Event> events_;

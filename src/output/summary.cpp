@@ -26,6 +26,38 @@ double number(const nlohmann::json& j, const char* name) {
   return x.get<double>();
 }
 
+std::optional<double> optional_number(const nlohmann::json& j, const char* name) {
+  const double x = number(j, name);
+  return std::isnan(x) ? std::nullopt : std::optional<double>(x);
+}
+
+// The inverses of analysis/events.hpp's to_json.
+ContactEventStats contact_statistics_from_json(const nlohmann::json& j) {
+  ContactEventStats s;
+  s.contact = static_cast<int>(number(j, "contact"));
+  s.slips = static_cast<long>(number(j, "slips"));
+  s.mean_recurrence = number(j, "mean_recurrence");
+  s.std_recurrence = number(j, "std_recurrence");
+  s.mean_slip_duration = number(j, "mean_slip_duration");
+  s.slipping_fraction = number(j, "slipping_fraction");
+  return s;
+}
+
+Synchronization synchronization_from_json(const nlohmann::json& j) {
+  Synchronization s;
+  s.contact_a = static_cast<int>(number(j, "contact_a"));
+  s.contact_b = static_cast<int>(number(j, "contact_b"));
+  s.slip_rate_ratio = number(j, "slip_rate_ratio");
+  s.lag_mean = number(j, "lag_mean");
+  s.lag_min = number(j, "lag_min");
+  s.lag_max = number(j, "lag_max");
+  s.window = number(j, "window");
+  s.coincident_fraction = number(j, "coincident_fraction");
+  s.xcorr_peak = optional_number(j, "xcorr_peak");
+  s.xcorr_lag = optional_number(j, "xcorr_lag");
+  return s;
+}
+
 // A field that older summaries lack or that is null when not defined.
 const nlohmann::json* present(const nlohmann::json& j, const char* name) {
   const auto it = j.find(name);

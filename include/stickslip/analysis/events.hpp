@@ -68,9 +68,5 @@ Synchronization synchronization(std::span<const Event> events, int contact_a, in
 
 nlohmann::json to_json(const ContactEventStats& s);
 nlohmann::json to_json(const Synchronization& s);
-// The inverses (summary.json read back): null is NaN, or empty where the
-// field is optional. Throw std::invalid_argument naming a missing field.
-ContactEventStats contact_statistics_from_json(const nlohmann::json& j);
-Synchronization synchronization_from_json(const nlohmann::json& j);
 
 }  // namespace stickslip
