@@ -6,7 +6,6 @@ Usage: /usr/bin/python3 plots/fig10.py OUT_A OUT_B [PNG]
        (outputs of cases/fig10a.toml and cases/fig10b.toml, traces on)
        -> PNG (default OUT_B/../fig10.png) and the same name .pdf
 """
-import csv
 import json
 import sys
 from pathlib import Path
@@ -15,27 +14,26 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from run_tables import read_table, where  # noqa: E402
 
 
 def load(out: Path):
-    traces = out / "traces.csv"
-    if not traces.is_file():
-        raise SystemExit(f"error: {traces}: no traces (set [output] traces = \"all\")")
-    with traces.open() as f:
-        reader = csv.reader(f)
-        header = next(reader)
-        columns = list(zip(*[[float(x) for x in row] for row in reader]))
-    ids = [h[3:] for h in header if h.startswith("vx_")]
+    traces = read_table(out, "traces")
+    if traces is None:
+        raise SystemExit(f"error: {where(out, 'traces')}: no traces (set [output] traces = \"all\")")
+    ids = [h[3:] for h in traces if h.startswith("vx_")]
     if len(ids) != 2:
-        raise SystemExit(f"error: {traces}: expected two traced contacts, found {len(ids)}")
-    v_star = {}
-    with (out / "contacts.csv").open() as f:
-        for row in csv.DictReader(f):
-            v_star[row["id"]] = (float(row["v_star"]), int(row["ix"]), int(row["iy"]))
+        raise SystemExit(f"error: {where(out, 'traces')}: expected two traced contacts, "
+                         f"found {len(ids)}")
+    contacts = read_table(out, "contacts")
+    if contacts is None:
+        raise SystemExit(f"error: {where(out, 'contacts')}: not found")
+    v_star = {str(int(i)): (float(v), int(ix), int(iy))
+              for i, v, ix, iy in zip(contacts["id"], contacts["v_star"], contacts["ix"], contacts["iy"])}
     summary_file = out / "summary.json"
     summary = json.loads(summary_file.read_text()) if summary_file.is_file() else {}
-    t = [x * 1e3 for x in columns[0]]
-    return summary, t, [(i, columns[header.index(f"vx_{i}")], v_star[i]) for i in ids]
+    t = traces["t"] * 1e3
+    return summary, t, [(i, traces[f"vx_{i}"], v_star[i]) for i in ids]
 
 
 def main() -> int:

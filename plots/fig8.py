@@ -7,7 +7,6 @@ Usage: /usr/bin/python3 plots/fig8.py OUT_LOW OUT_HIGH [PNG]
        (outputs of cases/fig8_low.toml and cases/fig8_high.toml)
        -> PNG (default OUT_HIGH/../fig8.png) and the same name .pdf
 """
-import csv
 import json
 import sys
 from pathlib import Path
@@ -16,19 +15,19 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from run_tables import read_table, where  # noqa: E402
 
 
 def load(out: Path):
     summary_file = out / "summary.json"
-    friction = out / "friction.csv"
-    if not friction.is_file():
-        raise SystemExit(f"error: {friction}: not found")
+    friction = read_table(out, "friction")
+    if friction is None:
+        raise SystemExit(f"error: {where(out, 'friction')}: not found")
     summary = json.loads(summary_file.read_text()) if summary_file.is_file() else {}
     theta = summary.get("theta")
     if theta is None:
         raise SystemExit(f"error: {summary_file}: no theta (the run has not finished)")
-    with friction.open() as f:
-        rows = [(float(r["t"]), float(r["F_f"])) for r in csv.DictReader(f)]
+    rows = list(zip(friction["t"].tolist(), friction["F_f"].tolist()))
     return summary, theta, rows
 
 

@@ -18,6 +18,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from run_tables import read_table  # noqa: E402
 
 
 def wrap(d: int, n: int) -> int:
@@ -48,10 +49,9 @@ def main() -> int:
         out = sweep / r["point"]
         summary = json.loads((out / "summary.json").read_text())
         lattice = summary["case"]["lattice"]
-        with (out / "contacts.csv").open() as f:
-            c = list(csv.DictReader(f))
-        dx = wrap(int(c[1]["ix"]) - int(c[0]["ix"]), lattice["nx"])
-        dy = wrap(int(c[1]["iy"]) - int(c[0]["iy"]), lattice["ny"])
+        c = read_table(out, "contacts")
+        dx = wrap(int(c["ix"][1]) - int(c["ix"][0]), lattice["nx"])
+        dy = wrap(int(c["iy"][1]) - int(c["iy"][0]), lattice["ny"])
         material = summary["case"]["material"]
         nu = material["poisson_ratio"]
         g2_over_g1 = (1 + 2 * nu) if material["grad_div"] == "paper" else 1 / (1 - 2 * nu)

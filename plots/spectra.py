@@ -34,6 +34,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from run_tables import read_table, where  # noqa: E402
 
 
 def fail(message: str):
@@ -42,21 +43,18 @@ def fail(message: str):
 
 
 def load(run: Path):
-    signals, summary_file = run / "signals.csv", run / "summary.json"
-    if not signals.is_file():
-        fail(f"{signals}: not found (run the case with [output] signals = true)")
+    signals, summary_file = read_table(run, "signals"), run / "summary.json"
+    if signals is None:
+        fail(f"{where(run, 'signals')}: not found (run the case with [output] signals = true)")
     if not summary_file.is_file():
         fail(f"{summary_file}: not found (the run has not finished)")
     summary = json.loads(summary_file.read_text())
-    with signals.open() as f:
-        rows = [(float(r["t"]), float(r["block_velocity"]), float(r["acoustic"]))
-                for r in csv.DictReader(f)]
-    data = np.array(rows)
+    data = np.column_stack([signals["t"], signals["block_velocity"], signals["acoustic"]])
     t_from, t_end = summary["average_from"], summary["t_end"]
     window = (data[:, 0] >= t_from - 1e-12) & (data[:, 0] <= t_end + 1e-12) & np.isfinite(data[:, 2])
     data = data[window]
     if len(data) < 16:
-        fail(f"{signals}: only {len(data)} rows in [{t_from}, {t_end}] s")
+        fail(f"{where(run, 'signals')}: only {len(data)} rows in [{t_from}, {t_end}] s")
     return summary, data
 
 

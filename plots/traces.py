@@ -3,7 +3,6 @@
 
 Usage: /usr/bin/python3 plots/traces.py OUTDIR   -> OUTDIR/traces.png and traces.pdf
 """
-import csv
 import json
 import sys
 from pathlib import Path
@@ -12,6 +11,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from run_tables import read_table, where  # noqa: E402
 
 
 def main() -> int:
@@ -19,22 +19,18 @@ def main() -> int:
         print(__doc__.strip(), file=sys.stderr)
         return 2
     out = Path(sys.argv[1])
-    traces = out / "traces.csv"
-    if not traces.is_file():
-        print(f"error: {traces}: no traces (set [output] traces in the case)", file=sys.stderr)
+    traces = read_table(out, "traces")
+    if traces is None:
+        print(f"error: {where(out, 'traces')}: no traces (set [output] traces in the case)",
+              file=sys.stderr)
         return 2
-    with traces.open() as f:
-        reader = csv.reader(f)
-        header = next(reader)
-        columns = list(zip(*[[float(x) for x in row] for row in reader]))
-    t_ms = [t * 1e3 for t in columns[0]]
-    ids = [name[3:] for name in header if name.startswith("vx_")]
+    t_ms = traces["t"] * 1e3
+    ids = [name[3:] for name in traces if name.startswith("vx_")]
     v_star = {}
-    contacts = out / "contacts.csv"
-    if contacts.is_file():
-        with contacts.open() as f:
-            for row in csv.DictReader(f):
-                v_star[row["id"]] = float(row["v_star"])
+    contacts = read_table(out, "contacts")
+    if contacts is not None:
+        for cid, v in zip(contacts["id"], contacts["v_star"]):
+            v_star[str(int(cid))] = float(v)
     summary = {}
     if (out / "summary.json").is_file():
         summary = json.loads((out / "summary.json").read_text())
@@ -42,7 +38,7 @@ def main() -> int:
 
     fig, axes = plt.subplots(len(ids), 1, figsize=(8, 2.2 * len(ids) + 0.6), sharex=True, squeeze=False)
     for ax, cid in zip(axes[:, 0], ids):
-        vx = columns[header.index(f"vx_{cid}")]
+        vx = traces[f"vx_{cid}"]
         ax.plot(t_ms, vx, lw=0.8, color="C0")
         label = f"contact {cid}"
         if cid in v_star:

@@ -64,6 +64,8 @@ const std::vector<Row> kRows = {
     {"coverage 1.5", "[interface]\ncoverage = 1.5\n",
      "interface.coverage: must be in (0, 1], got 1.5", 2},
     {"nz = 1", "[lattice]\nnx = 3\nnz = 1\n", "lattice.nz: must be >= 2, got 1", 3},
+    {"format netcdf", "[output]\nformat = \"netcdf\"\n",
+     "output.format: must be one of \"csv\", \"hdf5\", got \"netcdf\"", 2},
     {"spacing 0", "[lattice]\nspacing = 0.0\n", "lattice.spacing: must be > 0, got 0", 2},
     {"spacing < 0", "[lattice]\nspacing = -1e-4\n", "lattice.spacing: must be > 0, got -0.0001", 2},
     {"density 0", "[material]\ndensity = 0\n", "material.density: must be > 0, got 0", 2},

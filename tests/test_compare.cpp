@@ -347,8 +347,8 @@ TEST_CASE("compare: files present in only one run are reported, not compared", "
   CHECK(r.pass());
   std::ostringstream out;
   print_report(out, r);
-  CHECK_THAT(out.str(), Contains("traces.csv only in A"));
-  CHECK_THAT(out.str(), Contains("events.csv only in A"));
+  CHECK_THAT(out.str(), Contains("traces table only in A"));
+  CHECK_THAT(out.str(), Contains("events table only in A"));
 }
 
 TEST_CASE("compare: bad input is a CompareError, exit code 2, one line naming the file",

@@ -135,8 +135,11 @@ TEST_CASE("fig8.py, fig10.py, traces.py and pair_separation.py plot what the run
   box.write("two.toml", kTwoContacts);
   REQUIRE(box.run({"run", "base.toml", "--out", "low", "--set", "interface.coverage=0.1"}).code ==
           0);
-  REQUIRE(box.run({"run", "base.toml", "--out", "high", "--set", "interface.coverage=0.5"}).code ==
-          0);
+  // One run of each pair writes HDF5: the scripts read either format.
+  REQUIRE(box.run({"run", "base.toml", "--out", "high", "--set", "interface.coverage=0.5", "--set",
+                   "output.format=\"hdf5\""})
+              .code == 0);
+  REQUIRE(fs::exists(box.work / "high" / "run.h5"));
   const auto f8 = python(box, "fig8.py", "low high fig8.png");
   INFO(f8.out);
   REQUIRE(f8.code == 0);
@@ -150,7 +153,7 @@ TEST_CASE("fig8.py, fig10.py, traces.py and pair_separation.py plot what the run
   }
 
   REQUIRE(box.run({"run", "two.toml", "--out", "a"}).code == 0);
-  REQUIRE(box.run({"run", "two.toml", "--out", "b", "--set",
+  REQUIRE(box.run({"run", "two.toml", "--out", "b", "--set", "output.format=\"hdf5\"", "--set",
                    "interface.contacts=[{site=[1,2],v_star=4.75e-4},{site=[4,2],v_star=2.09e-3}]"})
               .code == 0);
   const auto f10 = python(box, "fig10.py", "a b fig10.png");
@@ -175,6 +178,45 @@ TEST_CASE("fig8.py, fig10.py, traces.py and pair_separation.py plot what the run
   check_png(box.work / "out" / "pairs" / "pair_separation.png");
   CHECK_THAT(ps.out, Catch::Contains("x        separation 1 a") &&
                          Catch::Contains("diagonal separation 2.83 a"));
+}
+
+TEST_CASE("run_tables.py reads the same tables from a run's CSV files and from its run.h5",
+          "[slow][plots]") {
+  Sandbox box("stickslip_plots_tables_");
+  // 1 ms: the first slips come at ~0.7 ms.
+  box.write("two.toml", std::string(kTwoContacts) + "signals = true\nsteps = true\n");
+  REQUIRE(box.run({"run", "two.toml", "--out", "csv", "--set", "run.t_end=1e-3"}).code == 0);
+  REQUIRE(box.run({"run", "two.toml", "--out", "hdf5", "--set", "run.t_end=1e-3", "--set",
+                   "output.format=\"hdf5\""})
+              .code == 0);
+  // h5py reads the file: a second reader, not the code's own.
+  box.write("same.py", R"(import sys
+import numpy as np
+from run_tables import read_table
+for name in ["contacts", "friction", "traces", "events", "steps", "signals"]:
+    a, b = read_table("csv", name), read_table("hdf5", name)
+    assert a is not None and b is not None, name
+    assert sorted(a) == sorted(b), (name, sorted(a), sorted(b))
+    for column in a:
+        x, y = a[column], b[column]
+        assert len(x) == len(y) and len(x) > 1, (name, column)
+        if x.dtype.kind in "fi":
+            ok = np.isclose(x, y, rtol=5.0001e-10, atol=0, equal_nan=True)
+            assert ok.all(), (name, column)
+        else:
+            assert (x == y).all(), (name, column)
+    print(name, len(a["t" if "t" in a else "id"]), "rows,", len(a), "columns: the same")
+assert read_table("csv", "final_state") is None and read_table("hdf5", "final_state") is None
+)");
+  const std::string cmd = "cd " + test::quote(box.work.string()) + " && PYTHONPATH=" +
+                          test::quote(std::string(STICKSLIP_SOURCE_DIR) + "/plots") +
+                          " /usr/bin/python3 same.py >same.txt 2>&1";
+  const int status = std::system(cmd.c_str());
+  const std::string out = slurp(box.work / "same.txt");
+  INFO(out);
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 0);
+  CHECK_THAT(out, Catch::Contains("events") && Catch::Contains("signals 1001 rows"));
 }
 
 TEST_CASE("work_precision.py tabulates the least time per error level and the default's ratios",

@@ -1,6 +1,6 @@
 // Checkpoint and restart through the real binary: a run stopped by SIGTERM and
-// restarted agrees with an uninterrupted one, without gaps or duplicated rows;
-// a restart with another case is refused.
+// restarted agrees with an uninterrupted one, without gaps or duplicated rows,
+// in either output format; a restart with another case is refused.
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -14,6 +14,7 @@
 
 #include "stickslip/analysis/compare.hpp"
 #include "stickslip/output/recorder.hpp"
+#include "stickslip/output/tables.hpp"
 #include "stickslip/output/writers.hpp"
 
 namespace fs = std::filesystem;
@@ -56,35 +57,25 @@ signals = true
 steps = true
 )";
 
-// signals.csv's columns: t, block_velocity, contact_impulse, acoustic.
-std::vector<std::vector<double>> signal_rows(const fs::path& csv) {
-  std::ifstream in(csv);
-  std::string line;
-  std::getline(in, line);
-  std::vector<std::vector<double>> rows;
-  while (std::getline(in, line)) {
-    std::vector<double> row;
-    const char* p = line.c_str();
-    for (char* end = nullptr;; p = end + 1) {
-      row.push_back(std::strtod(p, &end));
-      if (*end != ',') break;
-    }
-    rows.push_back(row);
-  }
-  return rows;
+std::vector<double> times(const fs::path& dir, const std::string& table) {
+  return read_run_table(dir, table).t;
 }
 
 }  // namespace
 
 TEST_CASE("a run stopped by SIGTERM and restarted agrees with an uninterrupted one",
           "[slow][restart]") {
-  const fs::path box = fs::temp_directory_path() / "stickslip_test_restart";
+  const std::string format = GENERATE("csv", "hdf5");
+  INFO("[output] format = " << format);
+  const fs::path box = fs::temp_directory_path() / ("stickslip_test_restart_" + format);
   fs::remove_all(box);
   fs::create_directories(box);
-  std::ofstream(box / "two.toml") << kCase;
+  std::ofstream(box / "two.toml") << kCase << "format = \"" << format << "\"\n";
   const std::string exe = STICKSLIP_EXE, dir = box.string();
 
   REQUIRE(shell("cd " + dir + " && " + exe + " run two.toml --out full --quiet >/dev/null") == 0);
+  CHECK(fs::exists(box / "full" / kHdf5File) == (format == "hdf5"));
+  CHECK(fs::exists(box / "full" / "friction.csv") == (format == "csv"));
   CHECK_FALSE(fs::exists(box / "full" / "checkpoint.bin"));  // removed once finished
 
   // Stop it as soon as it has written a checkpoint.
@@ -104,10 +95,10 @@ TEST_CASE("a run stopped by SIGTERM and restarted agrees with an uninterrupted o
 
   REQUIRE(shell("cd " + dir + " && " + exe + " run two.toml --restart part --quiet >/dev/null") ==
           0);
-  const auto full_t = first_column(box / "full" / "friction.csv");
-  const auto part_t = first_column(box / "part" / "friction.csv");
-  CHECK(part_t == full_t);  // same rows: no gap, no duplicate
-  CHECK(first_column(box / "part" / "traces.csv") == first_column(box / "full" / "traces.csv"));
+  const auto full_t = times(box / "full", "friction");
+  CHECK(full_t.size() == 1501);
+  CHECK(times(box / "part", "friction") == full_t);  // same rows: no gap, no duplicate
+  CHECK(times(box / "part", "traces") == full_t);
 
   // Restarting changes the step sequence, so the runs agree to the
   // integration tolerance, not bit for bit. Each slip's onset amplifies state
@@ -122,51 +113,41 @@ TEST_CASE("a run stopped by SIGTERM and restarted agrees with an uninterrupted o
   CHECK(r.mu_rel_diff < 1e-5);
   for (const auto& e : r.events) CHECK(e.max_dt < 1e-7);  // 1/30 of a slip's duration
 
-  // signals.csv continues across the restart: the same rows, and the acoustic
+  // The signals continue across the restart: the same rows, and the acoustic
   // signal (a second difference over output times) defined on every row after
   // the first two, with the two rows before the restart read back.
-  const auto full_s = signal_rows(box / "full" / "signals.csv");
-  const auto part_s = signal_rows(box / "part" / "signals.csv");
-  REQUIRE(part_s.size() == full_s.size());
+  const TraceTable full_s = read_run_table(box / "full", "signals");
+  const TraceTable part_s = read_run_table(box / "part", "signals");
+  REQUIRE(part_s.columns ==
+          std::vector<std::string>{"block_velocity", "contact_impulse", "acoustic"});
+  REQUIRE(part_s.t == full_s.t);
+  const auto& full_acoustic = full_s.values[2];
+  const auto& part_acoustic = part_s.values[2];
   double largest = 0, worst = 0;
-  for (std::size_t k = 0; k < full_s.size(); ++k) {
-    REQUIRE(part_s[k].size() == 4);
-    CHECK(part_s[k][0] == full_s[k][0]);
-    if (k < 2) continue;
-    REQUIRE(std::isfinite(part_s[k][3]));
-    largest = std::max(largest, std::abs(full_s[k][3]));
-    worst = std::max(worst, std::abs(part_s[k][3] - full_s[k][3]));
+  for (std::size_t k = 2; k < full_s.t.size(); ++k) {
+    REQUIRE(std::isfinite(part_acoustic[k]));
+    largest = std::max(largest, std::abs(full_acoustic[k]));
+    worst = std::max(worst, std::abs(part_acoustic[k] - full_acoustic[k]));
   }
   // Slips shift by < 1e-9 s, 1/1000 of the output interval the signal is
   // differenced over.
   INFO("largest acoustic " << largest << ", largest difference " << worst);
   CHECK(worst < 1e-2 * largest);
 
-  // Every CSV output continues across the restart without a duplicated row or
-  // a step back in time (each recorder cuts its own file back to the
-  // checkpoint); the case asks for all that a restart continues.
-  int continued = 0;
-  for (const std::string& name : recorder_files()) {
-    const fs::path file = box / "part" / name;
-    if (name == "contacts.csv" || name == "final_state.csv" || !fs::exists(file)) continue;
-    INFO(name);
-    std::ifstream in(file);
-    std::string line, previous;
-    std::getline(in, line);
-    double t_previous = -1;
-    long rows = 0;
-    while (std::getline(in, line)) {
-      const double t = std::strtod(line.c_str(), nullptr);
-      CHECK(line != previous);
-      CHECK(t >= t_previous);
-      previous = line;
-      t_previous = t;
-      ++rows;
-    }
-    CHECK(rows > 10);
-    ++continued;
+  // Every table continues across the restart without a duplicated row or a
+  // step back in time (each recorder cuts its own table back to the
+  // checkpoint; reading a table checks that its times increase); the case
+  // asks for all that a restart continues.
+  for (const char* table : {"friction", "traces", "steps", "signals"}) {
+    INFO(table);
+    CHECK(times(box / "part", table).size() > 10);
   }
-  CHECK(continued == 5);  // friction, traces, events, steps, signals
+  const auto events = read_run_events(box / "part");
+  CHECK(events.size() > 10);
+  for (std::size_t k = 1; k < events.size(); ++k) {
+    CHECK(events[k].t >= events[k - 1].t);
+    CHECK_FALSE((events[k].t == events[k - 1].t && events[k].contact == events[k - 1].contact));
+  }
   fs::remove_all(box);
 }
 

@@ -132,11 +132,6 @@ Summary run_summary(const fs::path& dir) {
   return *s;
 }
 
-bool present(const fs::path& file) {
-  std::error_code ec;
-  return fs::exists(file, ec);
-}
-
 // B's column interpolated linearly onto A's times where both runs have data.
 TraceDiff compare_column(const std::string& name, const TraceTable& a, std::size_t ca,
                          const TraceTable& b, std::size_t cb) {
@@ -179,11 +174,11 @@ TraceDiff compare_column(const std::string& name, const TraceTable& a, std::size
 }
 
 void compare_traces(CompareResult& r) {
-  r.traces_a = present(r.dir_a / "traces.csv");
-  r.traces_b = present(r.dir_b / "traces.csv");
+  r.traces_a = has_run_table(r.dir_a, "traces");
+  r.traces_b = has_run_table(r.dir_b, "traces");
   if (!r.traces_a || !r.traces_b) return;
-  const TraceTable a = read_traces_csv(r.dir_a / "traces.csv");
-  const TraceTable b = read_traces_csv(r.dir_b / "traces.csv");
+  const TraceTable a = read_run_table(r.dir_a, "traces");
+  const TraceTable b = read_run_table(r.dir_b, "traces");
   for (std::size_t ca = 0; ca < a.columns.size(); ++ca) {
     const auto it = std::find(b.columns.begin(), b.columns.end(), a.columns[ca]);
     if (it == b.columns.end()) {
@@ -219,8 +214,8 @@ void compare_traces(CompareResult& r) {
 }
 
 void compare_events(CompareResult& r) {
-  r.events_a = present(r.dir_a / "events.csv");
-  r.events_b = present(r.dir_b / "events.csv");
+  r.events_a = has_run_table(r.dir_a, "events");
+  r.events_b = has_run_table(r.dir_b, "events");
   if (!r.events_a || !r.events_b) return;
   // (contact, kind) → times, in time order; the map orders contacts, then slip
   // before stick.
@@ -231,8 +226,8 @@ void compare_events(CompareResult& r) {
     for (auto& [key, times] : g) std::stable_sort(times.begin(), times.end());
     return g;
   };
-  const Groups a = group(read_events_csv(r.dir_a / "events.csv"));
-  const Groups b = group(read_events_csv(r.dir_b / "events.csv"));
+  const Groups a = group(read_run_events(r.dir_a));
+  const Groups b = group(read_run_events(r.dir_b));
   Groups keys = a;
   for (const auto& [key, times] : b) keys[key];
   static const std::vector<double> none;
@@ -399,7 +394,7 @@ void print_report(std::ostream& out, const CompareResult& r) {
   };
   out << "traces  ";
   if (!r.traces_a || !r.traces_b) {
-    out << "traces.csv " << absent(r.traces_a, r.traces_b) << ": not compared\n";
+    out << "traces table " << absent(r.traces_a, r.traces_b) << ": not compared\n";
   } else if (r.traces.empty()) {
     out << "no common columns\n";
   } else {
@@ -419,7 +414,7 @@ void print_report(std::ostream& out, const CompareResult& r) {
 
   out << "events  ";
   if (!r.events_a || !r.events_b) {
-    out << "events.csv " << absent(r.events_a, r.events_b) << ": not compared\n";
+    out << "events table " << absent(r.events_a, r.events_b) << ": not compared\n";
   } else {
     long matched = 0, unmatched = 0;
     double max_dt = 0.0;

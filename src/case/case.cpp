@@ -29,6 +29,16 @@ const char* to_string(InitialState s) {
   return "?";
 }
 
+const char* to_string(OutputFormat f) {
+  switch (f) {
+    case OutputFormat::csv:
+      return "csv";
+    case OutputFormat::hdf5:
+      return "hdf5";
+  }
+  return "?";
+}
+
 const char* to_string(Method m) {
   switch (m) {
     case Method::imex:
@@ -125,7 +135,8 @@ nlohmann::json to_json(const Case& c) {
         {"events", selection(c.output.events, c.output.event_ids)},
         {"steps", c.output.steps},
         {"final_state", c.output.final_state},
-        {"signals", c.output.signals}}},
+        {"signals", c.output.signals},
+        {"format", to_string(c.output.format)}}},
   };
 }
 

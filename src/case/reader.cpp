@@ -302,6 +302,8 @@ const std::vector<Entry>& schema() {
       {"output", "steps", boolean(&OutputParams::steps)},
       {"output", "final_state", boolean(&OutputParams::final_state)},
       {"output", "signals", boolean(&OutputParams::signals)},
+      {"output", "format",
+       choice(&Case::output, &OutputParams::format, OutputFormat::csv, OutputFormat::hdf5)},
   };
   return entries;
 }

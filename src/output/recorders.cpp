@@ -9,6 +9,7 @@
 #include "stickslip/analysis/compare.hpp"
 #include "stickslip/analysis/cycles.hpp"
 #include "stickslip/output/recorder.hpp"
+#include "stickslip/output/tables.hpp"
 #include "stickslip/output/writers.hpp"
 
 namespace stickslip {
@@ -16,55 +17,63 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A CSV output that a restart continues: cut back to the checkpoint's time
-// and appended to, or created with its header.
-CsvWriter open_table(const RecorderSetup& s, const char* name,
-                     const std::vector<std::string>& header) {
-  const fs::path file = s.dir / name;
-  if (!s.resume_at) return CsvWriter(file, header);
-  keep_rows_up_to(file, *s.resume_at);
-  return CsvWriter::append(file);
+// A table that a restart continues: cut back to the checkpoint's time and
+// appended to, or created.
+std::unique_ptr<Table> open_table(const RecorderSetup& s, const TableSpec& spec) {
+  return s.resume_at ? s.tables.resume(spec, *s.resume_at) : s.tables.create(spec);
 }
 
-// contacts.csv: where the contacts are and their v*, written once.
+// The time column of every table; digits as it has always been printed.
+Column time_column(int digits = 12) {
+  return {.name = "t", .unit = "s", .digits = digits};
+}
+
+Column real(std::string name, std::string unit, int digits = 10) {
+  return {.name = std::move(name), .unit = std::move(unit), .digits = digits};
+}
+
+Column integer(std::string name) {
+  return {.name = std::move(name), .type = ColumnType::integer};
+}
+
+// contacts: where the contacts are (a patch's corner) and their v*, written once.
 class ContactsRecorder final : public Recorder {
  public:
-  static constexpr const char* kFile = "contacts.csv";
+  static constexpr const char* kTable = "contacts";
   explicit ContactsRecorder(const RecorderSetup& s) {
     if (s.resume_at) return;  // written by the first run
-    std::ofstream out(s.dir / kFile);
-    if (!out) throw OutputError((s.dir / kFile).string() + ": cannot open for writing");
-    out << "id,ix,iy,v_star\n";
-    char line[96];
+    const auto table = s.tables.create(
+        {kTable, {integer("id"), integer("ix"), integer("iy"), real("v_star", "m/s", 17)}});
     const auto& contacts = s.system.contacts();
     for (std::size_t i = 0; i < contacts.size(); ++i) {
-      std::snprintf(line, sizeof line, "%zu,%d,%d,%.17g\n", i, contacts[i].ix, contacts[i].iy,
-                    contacts[i].v_star);
-      out << line;
+      const double row[4] = {double(i), double(contacts[i].ix), double(contacts[i].iy),
+                             contacts[i].v_star};
+      table->append(row);
     }
+    table->flush();
   }
 };
 
-// friction.csv: F_f and F_f/F_N at the output times. At the end, from these
+// friction: F_f and F_f/F_N at the output times. At the end, from these
 // samples (so it costs nothing during the run): μ over whole cycles of F_f
 // and F_f's relative spread (analysis/cycles.hpp).
 class FrictionRecorder final : public Recorder {
  public:
-  static constexpr const char* kFile = "friction.csv";
+  static constexpr const char* kTable = "friction";
   explicit FrictionRecorder(const RecorderSetup& s)
       : system_(s.system),
-        file_(s.dir / kFile),
-        csv_(open_table(s, kFile, {"t", "F_f", "mu_inst"})),
+        dir_(s.dir),
+        table_(open_table(s, {kTable, {time_column(), real("F_f", "N"), real("mu_inst", "1")}})),
         normal_force_(s.system.normal_force()),
         average_from_(s.c.run.average_from) {}
   void record(double t, std::span<const double> y) override {
     const double ff = system_.friction_force(t, y);
-    const double row[2] = {ff, ff / normal_force_};
-    csv_.row(t, row);
+    const double row[3] = {t, ff, ff / normal_force_};
+    table_->append(row);
   }
-  void flush() override { csv_.flush(); }
+  void flush() override { table_->flush(); }
   void finish(double, std::span<const double>, Summary& summary) override {
-    const TraceTable series = read_traces_csv(file_);  // t, F_f, mu_inst
+    const TraceTable series = read_run_table(dir_, kTable);  // t, F_f, mu_inst
     const auto& t = series.t;
     if (std::count_if(t.begin(), t.end(), [&](double ti) { return ti >= average_from_; }) < 2)
       return;
@@ -76,41 +85,46 @@ class FrictionRecorder final : public Recorder {
 
  private:
   const System& system_;
-  fs::path file_;
-  CsvWriter csv_;
+  fs::path dir_;
+  std::unique_ptr<Table> table_;
   double normal_force_, average_from_;
 };
 
-// traces.csv: the traced contacts' in-plane velocities at the output times.
+// traces: the traced contacts' in-plane velocities at the output times (in
+// CSV vx_<id>, vy_<id> per contact; in HDF5 vx and vy as [time × contact]).
 class TracesRecorder final : public Recorder {
  public:
-  static constexpr const char* kFile = "traces.csv";
+  static constexpr const char* kTable = "traces";
   explicit TracesRecorder(const RecorderSetup& s)
-      : system_(s.system), traced_(s.traced), csv_(open_table(s, kFile, header(s.traced))) {
-    row_.resize(2 * traced_.size());
+      : system_(s.system), traced_(s.traced), table_(open_table(s, spec(s.traced))) {
+    row_.resize(1 + 2 * traced_.size());
   }
   void record(double t, std::span<const double> y) override {
+    row_[0] = t;
     for (std::size_t k = 0; k < traced_.size(); ++k) {
       const auto v = system_.contact_velocity(static_cast<std::size_t>(traced_[k]), y);
-      row_[2 * k] = v[0];
-      row_[2 * k + 1] = v[1];
+      row_[1 + 2 * k] = v[0];
+      row_[2 + 2 * k] = v[1];
     }
-    csv_.row(t, row_);
+    table_->append(row_);
   }
-  void flush() override { csv_.flush(); }
+  void flush() override { table_->flush(); }
 
  private:
-  static std::vector<std::string> header(const std::vector<int>& traced) {
-    std::vector<std::string> h{"t"};
-    for (int id : traced) {
-      h.push_back("vx_" + std::to_string(id));
-      h.push_back("vy_" + std::to_string(id));
-    }
-    return h;
+  static TableSpec spec(const std::vector<int>& traced) {
+    TableSpec spec{kTable, {time_column()}, "contact", traced};
+    for (std::size_t k = 0; k < traced.size(); ++k)
+      for (const char* axis : {"vx", "vy"}) {
+        Column c = real(std::string(axis) + "_" + std::to_string(traced[k]), "m/s");
+        c.dataset = axis;
+        c.member = static_cast<int>(k);
+        spec.columns.push_back(std::move(c));
+      }
+    return spec;
   }
   const System& system_;
   std::vector<int> traced_;
-  CsvWriter csv_;
+  std::unique_ptr<Table> table_;
   std::vector<double> row_;
 };
 
@@ -125,21 +139,35 @@ double travel_time(const System& s, const Contact& a, const Contact& b) {
   return std::hypot(dx, dy) * s.spacing() / std::sqrt(s.g1());
 }
 
-// events.csv: every stick/slip transition of the watched contacts. At the
+// events: every stick/slip transition of the watched contacts. At the
 // end, their statistics over the averaging window and, when exactly two are
 // watched, their synchronization (with the cross-correlation of their
 // x-velocities when both are traced, kept in memory for it).
 class EventsRecorder final : public Recorder {
  public:
-  static constexpr const char* kFile = "events.csv";
+  static constexpr const char* kTable = "events";
   explicit EventsRecorder(const RecorderSetup& s)
       : system_(s.system),
         average_from_(s.c.run.average_from),
         watched_(s.watched),
-        csv_(open_table(s, kFile, {"t", "contact", "kind", "speed", "force"})) {
+        table_(open_table(s, {kTable,
+                              {time_column(15),
+                               integer("contact"),
+                               {.name = "kind",
+                                .type = ColumnType::label,
+                                .labels = {std::string(to_string(EventKind::slip)),
+                                           std::string(to_string(EventKind::stick))}},
+                               real("speed", "m/s"),
+                               real("force", "N")}})) {
+    // The label column holds the EventKind's number.
+    static_assert(static_cast<int>(EventKind::slip) == 0 &&
+                  static_cast<int>(EventKind::stick) == 1);
     for (std::size_t i = 0; i < s.system.contacts().size(); ++i)
       slipping_at_start_.push_back(s.system.slipping(i, s.initial_state));
-    if (s.resume_at) events_ = read_events_csv(s.dir / kFile);
+    if (s.resume_at) {
+      table_->flush();  // the cut back reaches the file before it is read
+      events_ = read_run_events(s.dir);
+    }
     if (watched_.size() != 2) return;
     pair_ = {watched_[0], watched_[1]};
     auto traced = [&](int id) {
@@ -148,8 +176,8 @@ class EventsRecorder final : public Recorder {
     pair_traced_ = traced(pair_->first) && traced(pair_->second);
     if (!pair_traced_ || !s.resume_at) return;
     // The traces before the checkpoint, as TracesRecorder wrote them (it has
-    // cut traces.csv back already: it is made first).
-    const TraceTable table = read_traces_csv(s.dir / TracesRecorder::kFile);
+    // cut its table back already: it is made first).
+    const TraceTable table = read_run_table(s.dir, TracesRecorder::kTable);
     auto column = [&](int id) {
       const auto name = "vx_" + std::to_string(id);
       return table.values[static_cast<std::size_t>(
@@ -167,12 +195,11 @@ class EventsRecorder final : public Recorder {
   }
   void event(const Event& e) override {
     events_.push_back(e);
-    char line[160];
-    std::snprintf(line, sizeof line, "%.15g,%d,%s,%.10g,%.10g", e.t, e.contact,
-                  std::string(to_string(e.kind)).c_str(), e.speed, e.force);
-    csv_.line(line);
+    const double row[5] = {e.t, double(e.contact), double(static_cast<int>(e.kind)), e.speed,
+                           e.force};
+    table_->append(row);
   }
-  void flush() override { csv_.flush(); }
+  void flush() override { table_->flush(); }
   void finish(double t_end, std::span<const double>, Summary& summary) override {
     const double t_avg = average_from_;
     EventSummary events{static_cast<long>(events_.size()), t_avg, t_end, {}};
@@ -193,7 +220,7 @@ class EventsRecorder final : public Recorder {
   const System& system_;
   double average_from_;
   std::vector<int> watched_;
-  CsvWriter csv_;
+  std::unique_ptr<Table> table_;
   std::vector<Event> events_;
   std::vector<bool> slipping_at_start_;
   std::optional<std::pair<int, int>> pair_;
@@ -201,35 +228,38 @@ class EventsRecorder final : public Recorder {
   std::vector<double> pair_t_, pair_va_, pair_vb_;
 };
 
-// steps.csv: every accepted step's size and error estimate.
+// steps: every accepted step's size and error estimate.
 class StepsRecorder final : public Recorder {
  public:
-  static constexpr const char* kFile = "steps.csv";
+  static constexpr const char* kTable = "steps";
   explicit StepsRecorder(const RecorderSetup& s)
-      : csv_(open_table(s, kFile, {"t", "h", "error"})) {}
+      : table_(open_table(s, {kTable, {time_column(), real("h", "s"), real("error", "1")}})) {}
   bool wants_steps() const override { return true; }
   void step(const StepRecord& r) override {
-    const double row[2] = {r.h, r.error};
-    csv_.row(r.t, row);
+    const double row[3] = {r.t, r.h, r.error};
+    table_->append(row);
   }
-  void flush() override { csv_.flush(); }
+  void flush() override { table_->flush(); }
 
  private:
-  CsvWriter csv_;
+  std::unique_ptr<Table> table_;
 };
 
-// signals.csv: the block's centre-of-mass velocity, the contacts' impulse and
+// signals: the block's centre-of-mass velocity, the contacts' impulse and
 // the acoustic signal, its second difference over the output times (README).
 class SignalsRecorder final : public Recorder {
  public:
-  static constexpr const char* kFile = "signals.csv";
+  static constexpr const char* kTable = "signals";
+  // 17 digits: the impulse is differenced twice.
   explicit SignalsRecorder(const RecorderSetup& s)
       : system_(s.system),
-        csv_(open_table(s, kFile, {"t", "block_velocity", "contact_impulse", "acoustic"})) {
-    csv_.full_precision();  // the impulse is differenced twice
+        table_(open_table(s, {kTable,
+                              {time_column(), real("block_velocity", "m/s", 17),
+                               real("contact_impulse", "N s", 17), real("acoustic", "N/s", 17)}})) {
     if (!s.resume_at) return;
     // The last two rows' (t, impulse), to difference the next ones.
-    const TraceTable written = read_traces_csv(s.dir / kFile);
+    table_->flush();  // the cut back reaches the file before it is read
+    const TraceTable written = read_run_table(s.dir, kTable);
     const auto& impulses = written.values[1];  // block_velocity, contact_impulse, acoustic
     for (std::size_t k = written.t.size() - std::min<std::size_t>(2, written.t.size());
          k < written.t.size(); ++k)
@@ -245,50 +275,52 @@ class SignalsRecorder final : public Recorder {
       last_.erase(last_.begin());
     }
     last_.push_back({t, impulse});
-    const double values[3] = {system_.block_velocity(y), impulse, acoustic};
-    csv_.row(t, values);
+    const double row[4] = {t, system_.block_velocity(y), impulse, acoustic};
+    table_->append(row);
   }
-  void flush() override { csv_.flush(); }
+  void flush() override { table_->flush(); }
 
  private:
   const System& system_;
-  CsvWriter csv_;
+  std::unique_ptr<Table> table_;
   std::vector<std::array<double, 2>> last_;
 };
 
-// final_state.csv: every node's displacement and velocity at t_end, 17
-// digits, for comparing runs state by state (bench/work_precision.py).
+// final_state: every node's displacement and velocity at t_end, 17 digits,
+// for comparing runs state by state (bench/work_precision.py).
 class FinalStateRecorder final : public Recorder {
  public:
-  static constexpr const char* kFile = "final_state.csv";
-  explicit FinalStateRecorder(const RecorderSetup& s) : system_(s.system), dir_(s.dir) {}
+  static constexpr const char* kTable = "final_state";
+  explicit FinalStateRecorder(const RecorderSetup& s) : system_(s.system), tables_(s.tables) {}
   void finish(double t_end, std::span<const double> y, Summary&) override {
-    CsvWriter state(dir_ / kFile,
-                    {"t", "ix", "iy", "iz", "u_x", "u_y", "u_z", "w_x", "w_y", "w_z"});
-    state.full_precision();
-    std::array<double, 9> row{};
+    TableSpec spec{kTable, {time_column(), integer("ix"), integer("iy"), integer("iz")}};
+    for (const char* name : {"u_x", "u_y", "u_z"}) spec.columns.push_back(real(name, "m", 17));
+    for (const char* name : {"w_x", "w_y", "w_z"}) spec.columns.push_back(real(name, "m/s", 17));
+    const auto state = tables_.create(spec);
+    std::array<double, 10> row{};
     for (int iz = 0; iz < system_.nz(); ++iz)
       for (int iy = 0; iy < system_.ny(); ++iy)
         for (int ix = 0; ix < system_.nx(); ++ix) {
           const std::int64_t n = system_.node(ix, iy, iz);
-          row = {double(ix), double(iy), double(iz)};
+          row = {t_end, double(ix), double(iy), double(iz)};
           for (int k = 0; k < 3; ++k) {
-            row[3 + k] = y[static_cast<std::size_t>(system_.u_index(n, k))];
-            row[6 + k] = y[static_cast<std::size_t>(system_.w_index(n, k))];
+            row[4 + k] = y[static_cast<std::size_t>(system_.u_index(n, k))];
+            row[7 + k] = y[static_cast<std::size_t>(system_.w_index(n, k))];
           }
-          state.row(t_end, row);
+          state->append(row);
         }
+    state->flush();
   }
 
  private:
   const System& system_;
-  fs::path dir_;
+  TableStore& tables_;
 };
 
-// The registry: each output's file, and whether the case asks for it. Made
+// The registry: each output's table, and whether the case asks for it. Made
 // in this order (events reads back what traces cut on a restart).
 struct RecorderKind {
-  const char* file;
+  const char* table;
   bool (*asked)(const RecorderSetup&);
   std::unique_ptr<Recorder> (*make)(const RecorderSetup&);
 };
@@ -299,17 +331,17 @@ std::unique_ptr<Recorder> make(const RecorderSetup& s) {
 }
 
 constexpr RecorderKind kRecorders[] = {
-    {ContactsRecorder::kFile, [](const RecorderSetup&) { return true; }, make<ContactsRecorder>},
-    {FrictionRecorder::kFile, [](const RecorderSetup&) { return true; }, make<FrictionRecorder>},
-    {TracesRecorder::kFile, [](const RecorderSetup& s) { return !s.traced.empty(); },
+    {ContactsRecorder::kTable, [](const RecorderSetup&) { return true; }, make<ContactsRecorder>},
+    {FrictionRecorder::kTable, [](const RecorderSetup&) { return true; }, make<FrictionRecorder>},
+    {TracesRecorder::kTable, [](const RecorderSetup& s) { return !s.traced.empty(); },
      make<TracesRecorder>},
-    {EventsRecorder::kFile, [](const RecorderSetup& s) { return !s.watched.empty(); },
+    {EventsRecorder::kTable, [](const RecorderSetup& s) { return !s.watched.empty(); },
      make<EventsRecorder>},
-    {StepsRecorder::kFile, [](const RecorderSetup& s) { return s.c.output.steps; },
+    {StepsRecorder::kTable, [](const RecorderSetup& s) { return s.c.output.steps; },
      make<StepsRecorder>},
-    {SignalsRecorder::kFile, [](const RecorderSetup& s) { return s.c.output.signals; },
+    {SignalsRecorder::kTable, [](const RecorderSetup& s) { return s.c.output.signals; },
      make<SignalsRecorder>},
-    {FinalStateRecorder::kFile, [](const RecorderSetup& s) { return s.c.output.final_state; },
+    {FinalStateRecorder::kTable, [](const RecorderSetup& s) { return s.c.output.final_state; },
      make<FinalStateRecorder>},
 };
 
@@ -332,8 +364,8 @@ std::vector<std::unique_ptr<Recorder>> make_recorders(const RecorderSetup& setup
 }
 
 std::vector<std::string> recorder_files() {
-  std::vector<std::string> files;
-  for (const auto& kind : kRecorders) files.emplace_back(kind.file);
+  std::vector<std::string> files{kHdf5File};
+  for (const auto& kind : kRecorders) files.push_back(std::string(kind.table) + ".csv");
   return files;
 }
 

@@ -34,21 +34,6 @@ void prepare_output_dir(const std::filesystem::path& dir, bool overwrite,
   fs::remove(probe, ec);
 }
 
-CsvWriter::CsvWriter(const std::filesystem::path& file, const std::vector<std::string>& header)
-    : out_(file), file_(file) {
-  if (!out_) throw OutputError(file.string() + ": cannot open for writing");
-  for (std::size_t i = 0; i < header.size(); ++i) out_ << (i ? "," : "") << header[i];
-  out_ << '\n';
-}
-
-CsvWriter CsvWriter::append(const std::filesystem::path& file) {
-  CsvWriter w;
-  w.out_.open(file, std::ios::app);
-  w.file_ = file;
-  if (!w.out_) throw OutputError(file.string() + ": cannot open for appending");
-  return w;
-}
-
 void keep_rows_up_to(const std::filesystem::path& file, double t) {
   std::ifstream in(file);
   if (!in) return;
@@ -66,16 +51,6 @@ void keep_rows_up_to(const std::filesystem::path& file, double t) {
   }
   in.close();
   write_atomically(file, [&](std::ostream& out) { out << kept; });
-}
-
-void CsvWriter::row(double t, std::span<const double> values) {
-  std::snprintf(buffer_, sizeof buffer_, "%.12g", t);
-  out_ << buffer_;
-  for (double v : values) {
-    std::snprintf(buffer_, sizeof buffer_, value_format_, v);
-    out_ << buffer_;
-  }
-  out_ << '\n';
 }
 
 void write_atomically(const std::filesystem::path& file,

@@ -31,7 +31,7 @@ extern "C" void request_stop(int sig) {
   g_stop_signal = sig;
 }
 
-// How often (wall time) the CSV outputs are flushed, so a crash keeps them.
+// How often (wall time) the outputs are flushed, so a crash keeps them.
 constexpr double kFlushSeconds = 2.0;
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
@@ -123,9 +123,16 @@ RunResult run_case(const Case& c, const RunOptions& options) {
   std::vector<double> y = resume ? resume->state : y0;
 
   // Only what the case asks for is recorded (traces, events, steps, signals, ...).
+  const auto tables = make_table_store(c.output.format, dir, resume.has_value());
+  if (!resume) {
+    // An HDF5 file describes its run by itself (a CSV run has summary.json).
+    tables->set_attribute("case", to_json(c).dump());
+    tables->set_attribute("git_commit", kGitCommit);
+    tables->set_attribute("sundials_version", SUNDIALS_VERSION);
+  }
   const auto watched = selected_contacts(c.output.events, c.output.event_ids, contacts.size());
   const auto recorders = make_recorders(
-      {c, system, dir, y0, resume ? std::optional<double>(resume->t) : std::nullopt,
+      {c, system, *tables, dir, y0, resume ? std::optional<double>(resume->t) : std::nullopt,
        selected_contacts(c.output.traces, c.output.trace_ids, contacts.size()), watched});
   auto flush_all = [&] {
     for (const auto& r : recorders) r->flush();
@@ -316,6 +323,7 @@ RunResult run_case(const Case& c, const RunOptions& options) {
   summary.sundials_version = SUNDIALS_VERSION;
   summary.case_json = to_json(c);
   for (const auto& r : recorders) r->finish(t_end, y, summary);
+  tables->set_attribute("summary", to_json(summary).dump());
   write_summary(dir, summary);
   // The run is complete: its checkpoint has nothing left to resume.
   std::filesystem::remove(dir / kCheckpointFile);

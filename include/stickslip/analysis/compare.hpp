@@ -1,8 +1,8 @@
 #pragma once
 // `stickslip compare DIR_A DIR_B`: how far apart two runs' outputs are, A being
 // the reference. Reads each directory's summary.json and, where both runs have
-// them, traces.csv and events.csv; touches nothing but the report it is asked
-// to write.
+// them, their traces and events tables (CSV or HDF5, output/tables.hpp);
+// touches nothing but the report it is asked to write.
 //
 // Tolerance rule (rtol, default 1e-2). The comparison fails if
 //   - |μ_B − μ_A| / |μ_A| > rtol, or
@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "stickslip/analysis/events.hpp"
+#include "stickslip/output/tables.hpp"
 
 namespace stickslip {
 
@@ -64,11 +65,11 @@ struct CompareResult {
   double t_end_a = 0.0;          // case.run.t_end of A [s]
   double event_tolerance = 0.0;  // rtol × t_end_a [s]
 
-  bool traces_a = false, traces_b = false;  // traces.csv present
+  bool traces_a = false, traces_b = false;  // the traces table present
   std::vector<TraceDiff> traces;            // common columns, in A's order
   std::vector<std::string> columns_only_a, columns_only_b;
 
-  bool events_a = false, events_b = false;  // events.csv present
+  bool events_a = false, events_b = false;  // the events table present
   std::vector<EventDiff> events;            // by contact, then slip before stick
 
   std::vector<std::string> failures;  // one line per tolerance violated
@@ -94,12 +95,8 @@ int compare_command(const std::filesystem::path& dir_a, const std::filesystem::p
                     std::ostream& err);
 
 // Readers of a run's CSV outputs; they throw CompareError naming the file,
-// with the line number for a malformed row.
-struct TraceTable {
-  std::vector<std::string> columns;         // without "t"
-  std::vector<double> t;                    // strictly increasing
-  std::vector<std::vector<double>> values;  // values[column][row]
-};
+// with the line number for a malformed row. (output/tables.hpp reads a run's
+// tables in either format.)
 TraceTable read_traces_csv(const std::filesystem::path& file);
 std::vector<Event> read_events_csv(const std::filesystem::path& file);
 

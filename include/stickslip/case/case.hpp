@@ -95,6 +95,10 @@ struct SolverParams {
   int threads = 1;
 };
 
+// The files a run writes its tables to: one CSV file per table, or one HDF5
+// file (run.h5) with a group per table.
+enum class OutputFormat { csv, hdf5 };
+
 struct OutputParams {
   std::filesystem::path dir;  // empty: out/<case file stem> in the working directory
   double interval = 1e-6;     // [s] between rows of friction.csv and traces.csv
@@ -105,6 +109,7 @@ struct OutputParams {
   bool steps = false;                               // write steps.csv
   bool final_state = false;                         // write final_state.csv
   bool signals = false;  // write signals.csv (block velocity, acoustic signal)
+  OutputFormat format = OutputFormat::csv;
 };
 
 struct Case {
@@ -131,6 +136,7 @@ const char* to_string(GradDiv);
 const char* to_string(InitialState);
 const char* to_string(Method);
 const char* to_string(LinearSolver);
+const char* to_string(OutputFormat);
 
 // The method whose rules (fixed step, orders) a case is validated against:
 // itself, or for "auto" imex, whose rules are the narrower of the two methods

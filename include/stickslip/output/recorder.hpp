@@ -1,8 +1,9 @@
 #pragma once
-// The outputs of a run, each one Recorder: it opens its file, records at the
-// output times, at stick/slip events or at steps, flushes, cuts itself back
-// to a checkpoint on a restart (reading back what it needs to continue), and
-// adds its part to summary.json when the run ends. The run loop
+// The outputs of a run, each one Recorder: it opens its table (a CSV file or
+// an HDF5 group, output/tables.hpp), records at the output times, at
+// stick/slip events or at steps, flushes, cuts itself back to a checkpoint on
+// a restart (reading back what it needs to continue), and adds its part to
+// summary.json when the run ends. The run loop
 // (run/run.cpp) owns advancing, averaging, checkpoints and the energy-audit
 // gate, and knows the outputs only through this interface. A new output is
 // one class in src/output/recorders.cpp, its line in the registry there, and
@@ -20,6 +21,7 @@
 #include "stickslip/integrate/integrator.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/output/summary.hpp"
+#include "stickslip/output/tables.hpp"
 
 namespace stickslip {
 
@@ -27,7 +29,8 @@ namespace stickslip {
 struct RecorderSetup {
   const Case& c;
   const System& system;
-  std::filesystem::path dir;
+  TableStore& tables;
+  std::filesystem::path dir;              // where the tables are read back from
   std::span<const double> initial_state;  // at t = 0 (a restart's too)
   // A restart: continue every file from this time (rows after it are dropped).
   std::optional<double> resume_at;
@@ -56,14 +59,14 @@ class Recorder {
 std::vector<int> selected_contacts(ContactSelection which, const std::vector<int>& ids,
                                    std::size_t contacts);
 
-// The recorders the case asks for, their files opened (or, on a restart, cut
-// back to resume_at and reopened for appending). OutputError if a file
+// The recorders the case asks for, their tables created (or, on a restart,
+// cut back to resume_at and reopened for appending). OutputError if a table
 // cannot be opened.
 std::vector<std::unique_ptr<Recorder>> make_recorders(const RecorderSetup& setup);
 
-// Every file a recorder may write, whatever the case asks for: a directory
-// holding one holds results, and --overwrite removes them all (no stale
-// traces.csv from an earlier run that traced).
+// Every file a recorder may write, whatever the case asks for and in either
+// format: a directory holding one holds results, and --overwrite removes them
+// all (no stale traces.csv from an earlier run that traced).
 std::vector<std::string> recorder_files();
 
 }  // namespace stickslip

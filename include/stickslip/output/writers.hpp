@@ -1,7 +1,8 @@
 #pragma once
-// Output files of a run. CSV rows are formatted with snprintf into a buffered
-// stream; summary.json is written atomically (temporary file, then rename) so
-// a reader never sees half of it.
+// Output files of a run (its tables are in output/tables.hpp): the output
+// directory, cutting a CSV table back for a restart, and writing a file
+// atomically (temporary file, then rename) so a reader never sees half of
+// summary.json.
 
 #include <cstdio>
 #include <filesystem>
@@ -28,26 +29,6 @@ class OutputError : public std::runtime_error {
 // `result_files` and `overwrite` is false; with `overwrite`, removes only those.
 void prepare_output_dir(const std::filesystem::path& dir, bool overwrite,
                         std::span<const std::string> result_files);
-
-class CsvWriter {
- public:
-  CsvWriter(const std::filesystem::path& file, const std::vector<std::string>& header);
-  // Appends to an existing file (a restarted run), writing no header.
-  static CsvWriter append(const std::filesystem::path& file);
-  // One row: values printed with 10 significant digits (times with 12).
-  void row(double t, std::span<const double> values);
-  void line(std::string_view text) { out_ << text << '\n'; }
-  // Values with 17 digits from here on, enough to read back every double.
-  void full_precision() { value_format_ = ",%.17g"; }
-  void flush() { out_.flush(); }
-
- private:
-  CsvWriter() = default;
-  std::ofstream out_;
-  std::filesystem::path file_;
-  const char* value_format_ = ",%.10g";
-  char buffer_[32];
-};
 
 // Drops the rows of a CSV file (first column: time) after `t`, keeping the
 // header: a restart continues from its checkpoint without duplicated rows.

@@ -1,0 +1,156 @@
+// The CSV store of a run's tables, and reading a run's tables back in either
+// format (the HDF5 store is in hdf5_tables.cpp).
+#include "stickslip/output/tables.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+
+#include "hdf5_tables.hpp"
+#include "stickslip/analysis/compare.hpp"
+#include "stickslip/output/writers.hpp"
+
+namespace stickslip {
+
+void check_row(std::span<const double> row, std::size_t columns) {
+  if (row.size() != columns)
+    throw std::logic_error("a table row of " + std::to_string(row.size()) + " values for " +
+                           std::to_string(columns) + " columns");
+}
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// A table as a CSV file: the header, then a row per line; each value printed
+// as its column says (reals with the column's significant digits).
+class CsvTable final : public Table {
+ public:
+  CsvTable(const TableSpec& spec, const fs::path& file, bool append) : columns_(spec.columns) {
+    out_.open(file, append ? std::ios::app : std::ios::trunc);
+    if (!out_)
+      throw OutputError(file.string() + ": cannot open for " + (append ? "appending" : "writing"));
+    for (const Column& c : columns_) formats_.push_back("%." + std::to_string(c.digits) + "g");
+    if (append) return;
+    for (std::size_t i = 0; i < columns_.size(); ++i) out_ << (i ? "," : "") << columns_[i].name;
+    out_ << '\n';
+  }
+  void append(std::span<const double> row) override {
+    check_row(row, columns_.size());
+    for (std::size_t i = 0; i < columns_.size(); ++i) {
+      if (i) out_ << ',';
+      const Column& c = columns_[i];
+      switch (c.type) {
+        case ColumnType::real:
+          std::snprintf(buffer_, sizeof buffer_, formats_[i].c_str(), row[i]);
+          out_ << buffer_;
+          break;
+        case ColumnType::integer:
+          out_ << std::llround(row[i]);
+          break;
+        case ColumnType::label:
+          out_ << c.labels.at(static_cast<std::size_t>(std::llround(row[i])));
+          break;
+      }
+    }
+    out_ << '\n';
+  }
+  void flush() override { out_.flush(); }
+
+ private:
+  std::vector<Column> columns_;
+  std::vector<std::string> formats_;
+  std::ofstream out_;
+  char buffer_[40];
+};
+
+class CsvStore final : public TableStore {
+ public:
+  explicit CsvStore(fs::path dir) : dir_(std::move(dir)) {}
+  std::unique_ptr<Table> create(const TableSpec& spec) override {
+    return std::make_unique<CsvTable>(spec, file(spec), false);
+  }
+  std::unique_ptr<Table> resume(const TableSpec& spec, double t) override {
+    if (!fs::exists(file(spec)))
+      throw OutputError(file(spec).string() + ": missing; the run cannot continue without it");
+    keep_rows_up_to(file(spec), t);
+    return std::make_unique<CsvTable>(spec, file(spec), true);
+  }
+  void set_attribute(const std::string&, const std::string&) override {}
+
+ private:
+  fs::path file(const TableSpec& spec) const { return dir_ / (spec.name + ".csv"); }
+  fs::path dir_;
+};
+
+fs::path csv_file(const fs::path& dir, const std::string& name) {
+  return dir / (name + ".csv");
+}
+
+bool is_hdf5_run(const fs::path& dir) {
+  return fs::exists(dir / kHdf5File);
+}
+
+}  // namespace
+
+std::unique_ptr<TableStore> make_table_store(OutputFormat format, const fs::path& dir,
+                                             bool resume) {
+  if (format == OutputFormat::hdf5) return make_hdf5_store(dir / kHdf5File, resume);
+  return std::make_unique<CsvStore>(dir);
+}
+
+bool has_run_table(const fs::path& dir, const std::string& name) {
+  if (is_hdf5_run(dir)) return hdf5_has_table(dir / kHdf5File, name);
+  std::error_code ec;
+  return fs::is_regular_file(csv_file(dir, name), ec);
+}
+
+TraceTable read_run_table(const fs::path& dir, const std::string& name) {
+  if (!is_hdf5_run(dir)) return read_traces_csv(csv_file(dir, name));
+  const fs::path file = dir / kHdf5File;
+  auto columns = read_hdf5_table(file, name);
+  const std::string where = file.string() + ": /" + name;
+  if (columns.empty() || columns.front().first != "t")
+    throw CompareError(where + ": the first dataset is not \"t\"");
+  TraceTable table;
+  table.t = std::move(columns.front().second);
+  for (std::size_t i = 1; i < table.t.size(); ++i)
+    if (!std::isfinite(table.t[i]) || !(table.t[i] > table.t[i - 1]))
+      throw CompareError(where + "/t: row " + std::to_string(i) + ": time does not increase");
+  for (std::size_t c = 1; c < columns.size(); ++c) {
+    table.columns.push_back(std::move(columns[c].first));
+    table.values.push_back(std::move(columns[c].second));
+  }
+  return table;
+}
+
+std::vector<Event> read_run_events(const fs::path& dir) {
+  if (!is_hdf5_run(dir)) return read_events_csv(csv_file(dir, "events"));
+  const fs::path file = dir / kHdf5File;
+  const auto columns = read_hdf5_table(file, "events");
+  auto column = [&](const char* name) -> const std::vector<double>* {
+    for (const auto& [n, values] : columns)
+      if (n == name) return &values;
+    return nullptr;
+  };
+  const auto *t = column("t"), *contact = column("contact"), *kind = column("kind");
+  if (!t || !contact || !kind)
+    throw CompareError(file.string() + ": /events: needs the datasets t, contact and kind");
+  const auto *speed = column("speed"), *force = column("force");
+  std::vector<Event> events(t->size());
+  for (std::size_t i = 0; i < events.size(); ++i) {
+    Event& e = events[i];
+    e.t = (*t)[i];
+    e.contact = static_cast<int>((*contact)[i]);
+    const double k = (*kind)[i];
+    if (k != static_cast<double>(EventKind::slip) && k != static_cast<double>(EventKind::stick))
+      throw CompareError(file.string() + ": /events/kind: row " + std::to_string(i) +
+                         " is neither slip nor stick");
+    e.kind = static_cast<EventKind>(static_cast<int>(k));
+    if (speed) e.speed = (*speed)[i];
+    if (force) e.force = (*force)[i];
+  }
+  return events;
+}
+
+}  // namespace stickslip

@@ -1,0 +1,216 @@
+// A run's tables in CSV and in HDF5: the same rows either way, read back the
+// same way, cut back and continued by a restart; a run in format "hdf5"
+// holds the same numbers as the same run's CSV files.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "../src/output/hdf5_tables.hpp"
+#include "stickslip/analysis/compare.hpp"
+#include "stickslip/case/reader.hpp"
+#include "stickslip/output/summary.hpp"
+#include "stickslip/output/tables.hpp"
+#include "stickslip/output/writers.hpp"
+#include "stickslip/run/run.hpp"
+
+namespace fs = std::filesystem;
+using namespace stickslip;
+
+namespace {
+
+using Columns = std::map<std::string, std::vector<double>>;
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+// A CSV file's columns by header name, parsed here (not by the code under
+// test); the events' kind text as EventKind's number.
+Columns csv_columns(const fs::path& file) {
+  std::ifstream in(file);
+  REQUIRE(in);
+  std::string line, field;
+  std::getline(in, line);
+  std::vector<std::string> header;
+  for (std::istringstream fields(line); std::getline(fields, field, ',');) header.push_back(field);
+  Columns columns;
+  while (std::getline(in, line)) {
+    std::istringstream fields(line);
+    for (const auto& name : header) {
+      REQUIRE(std::getline(fields, field, ','));
+      const double value = field == "slip"    ? 0.0
+                           : field == "stick" ? 1.0
+                                              : std::strtod(field.c_str(), nullptr);
+      columns[name].push_back(value);
+    }
+  }
+  return columns;
+}
+
+Columns hdf5_columns(const fs::path& file, const std::string& table) {
+  Columns columns;
+  for (auto& [name, values] : read_hdf5_table(file, table)) columns[name] = std::move(values);
+  return columns;
+}
+
+// Whether `printed` is `exact` printed to at least 10 significant digits.
+bool same_number(double exact, double printed) {
+  if (std::isnan(exact)) return std::isnan(printed);
+  return std::abs(printed - exact) <= 5.0001e-10 * std::abs(exact);
+}
+
+// A spec of every kind of column read_run_table reads: time, an integer and a
+// 2-D pair whose members are listed out of order. (Label columns, the
+// events' kind, are read by read_run_events: tested with whole runs.)
+TableSpec test_spec() {
+  TableSpec spec{"probe", {{.name = "t", .unit = "s", .digits = 12}}, "contact", {7, 3}};
+  spec.columns.push_back({.name = "n", .type = ColumnType::integer});
+  for (int k = 0; k < 2; ++k)
+    for (const char* axis : {"vx", "vy"})
+      spec.columns.push_back({.name = std::string(axis) + "_" + std::to_string(spec.members[k]),
+                              .unit = "m/s",
+                              .dataset = axis,
+                              .member = k});
+  return spec;
+}
+
+std::vector<double> test_row(long k) {
+  return {1e-4 * static_cast<double>(k), static_cast<double>(k % 5), std::sin(0.1 * k),
+          -1e-9 * std::cos(0.3 * k),     std::exp(-1e-3 * k),        1e17 * k};
+}
+
+}  // namespace
+
+TEST_CASE("a table reads back the same from CSV and HDF5, also after a restart's cut", "[tables]") {
+  const TableSpec spec = test_spec();
+  // More rows than one HDF5 write block (4096), with a flush in between.
+  const long rows = 5000, kept = 3000, more = 1200;
+  for (const OutputFormat format : {OutputFormat::csv, OutputFormat::hdf5}) {
+    INFO(to_string(format));
+    const fs::path dir = fresh_dir(std::string("stickslip_test_tables_") + to_string(format));
+    {
+      const auto store = make_table_store(format, dir, false);
+      const auto table = store->create(spec);
+      for (long k = 0; k < rows; ++k) {
+        table->append(test_row(k));
+        if (k == 2500) table->flush();
+      }
+      table->flush();
+    }
+    CHECK(has_run_table(dir, "probe"));
+    CHECK_FALSE(has_run_table(dir, "absent"));
+    // A restart at row kept's time: later rows go, new ones follow.
+    {
+      const auto store = make_table_store(format, dir, true);
+      const auto table = store->resume(spec, 1e-4 * kept);
+      for (long k = kept + 1; k <= kept + more; ++k) table->append(test_row(k));
+      table->flush();
+    }
+    const TraceTable read = read_run_table(dir, "probe");
+    REQUIRE(read.t.size() == static_cast<std::size_t>(kept + more + 1));
+    // Columns by their CSV names, 2-D members named by their ids.
+    std::map<std::string, std::size_t> index;
+    for (std::size_t c = 0; c < read.columns.size(); ++c) index[read.columns[c]] = c;
+    CHECK(index.size() == 5);
+    const std::vector<std::string> names{"n", "vx_7", "vy_7", "vx_3", "vy_3"};
+    for (std::size_t k = 0; k < read.t.size(); ++k) {
+      const auto expected = test_row(static_cast<long>(k));
+      REQUIRE(same_number(expected[0], read.t[k]));
+      for (std::size_t c = 0; c < names.size(); ++c) {
+        REQUIRE(index.count(names[c]));
+        const double value = read.values[index[names[c]]][k];
+        // HDF5 keeps every double; CSV prints 10 digits.
+        if (format == OutputFormat::hdf5)
+          REQUIRE(value == expected[c + 1]);
+        else
+          REQUIRE(same_number(expected[c + 1], value));
+      }
+    }
+    fs::remove_all(dir);
+  }
+}
+
+TEST_CASE("a resumed table that does not exist is an output error naming it", "[tables]") {
+  for (const OutputFormat format : {OutputFormat::csv, OutputFormat::hdf5}) {
+    const fs::path dir =
+        fresh_dir(std::string("stickslip_test_tables_missing_") + to_string(format));
+    make_table_store(format, dir, false);  // creates run.h5 (empty) in HDF5
+    const auto store = make_table_store(format, dir, true);
+    CHECK_THROWS_AS(store->resume(test_spec(), 0.0), OutputError);
+    try {
+      store->resume(test_spec(), 0.0);
+    } catch (const OutputError& e) {
+      CHECK_THAT(e.what(), Catch::Contains("probe"));
+    }
+    fs::remove_all(dir);
+  }
+}
+
+TEST_CASE("a run in format hdf5 holds the same numbers as the same run's CSV files",
+          "[slow][tables]") {
+  const fs::path box = fresh_dir("stickslip_test_hdf5_run");
+  // Every output on: two contacts that stick and slip on a small lattice.
+  const std::string text = R"([lattice]
+nx = 6
+ny = 6
+nz = 4
+[interface]
+contacts = [ { site = [1, 2], v_star = 4.75e-4 }, { site = [4, 2], v_star = 2.09e-3 } ]
+[run]
+t_end = 1e-3
+average_from = 2e-4
+[output]
+interval = 2e-6
+traces = "all"
+signals = true
+steps = true
+final_state = true
+)";
+  std::map<std::string, fs::path> dirs;
+  for (const char* format : {"csv", "hdf5"}) {
+    const Case c = parse_case(text + "format = \"" + format + "\"\n", box / "probe.toml");
+    RunOptions options;
+    options.out_dir = dirs[format] = box / format;
+    options.quiet = true;
+    run_case(c, options);
+  }
+  const fs::path h5 = dirs["hdf5"] / kHdf5File;
+  REQUIRE(fs::exists(h5));
+  for (const char* name : {"friction.csv", "traces.csv", "events.csv", "steps.csv", "contacts.csv",
+                           "signals.csv", "final_state.csv"}) {
+    CHECK_FALSE(fs::exists(dirs["hdf5"] / name));
+    const std::string table = fs::path(name).stem().string();
+    INFO(table);
+    const Columns csv = csv_columns(dirs["csv"] / name);
+    const Columns hdf5 = hdf5_columns(h5, table);
+    REQUIRE(hdf5.size() == csv.size());
+    for (const auto& [column, printed] : csv) {
+      INFO(column);
+      REQUIRE(hdf5.count(column));
+      const auto& exact = hdf5.at(column);
+      REQUIRE(exact.size() == printed.size());
+      CHECK(exact.size() > 1);
+      for (std::size_t k = 0; k < exact.size(); ++k) REQUIRE(same_number(exact[k], printed[k]));
+    }
+  }
+  // The summary as the root attribute, the same as summary.json; and the
+  // case and provenance beside it.
+  const Summary from_file = *read_summary(dirs["hdf5"]);
+  std::ifstream summary_json(dirs["hdf5"] / kSummaryFile);
+  CHECK(nlohmann::json::parse(read_hdf5_attribute(h5, "summary")) ==
+        nlohmann::json::parse(summary_json));
+  CHECK(nlohmann::json::parse(read_hdf5_attribute(h5, "case")) == from_file.case_json);
+  CHECK(read_hdf5_attribute(h5, "git_commit") == from_file.git_commit);
+  // The same run: μ from the same integration, bit for bit.
+  CHECK(read_summary(dirs["csv"])->mu == from_file.mu);
+  fs::remove_all(box);
+}
