@@ -97,7 +97,7 @@ TEST_CASE("cases/steady.toml reaches the exact steady-sliding mu", "[steady]") {
   options.out_dir = std::filesystem::temp_directory_path() / "stickslip_test_steady";
   options.overwrite = true;
   options.quiet = true;
-  const RunResult r = run_case(c, options);
+  const Summary r = run_case(c, options);
   const auto summary = nlohmann::json::parse(std::ifstream(options.out_dir / "summary.json"));
   std::filesystem::remove_all(options.out_dir);
   INFO("mu = " << r.mu << ", exact " << exact);

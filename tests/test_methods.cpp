@@ -242,11 +242,11 @@ TEST_CASE("events = none registers no root functions", "[methods][events]") {
   TempDir dir("stickslip_test_no_events");
   RunOptions options{dir.path / "none", false, true};
   c.output.events = ContactSelection::none;
-  CHECK(run_case(c, options).stats.root_evaluations == 0);
+  CHECK(run_case(c, options).solver_stats.root_evaluations == 0);
   CHECK_FALSE(fs::exists(options.out_dir / "events.csv"));
   c.output.events = ContactSelection::all;
   options.out_dir = dir.path / "all";
-  CHECK(run_case(c, options).stats.root_evaluations > 0);
+  CHECK(run_case(c, options).solver_stats.root_evaluations > 0);
   CHECK(fs::exists(options.out_dir / "events.csv"));
 }
 
@@ -277,7 +277,7 @@ TEST_CASE("steps.csv lists every accepted step with its size and error", "[metho
   for (Method m : {Method::imex, Method::bdf}) {
     c.solver.method = m;
     RunOptions options{dir.path / to_string(m), false, true};
-    const RunResult r = run_case(c, options);
+    const Summary r = run_case(c, options);
     std::ifstream in(options.out_dir / "steps.csv");
     std::string line;
     std::getline(in, line);
@@ -293,7 +293,7 @@ TEST_CASE("steps.csv lists every accepted step with its size and error", "[metho
       t_prev = t;
       ++rows;
     }
-    CHECK(rows == r.stats.steps);
+    CHECK(rows == r.solver_stats.steps);
     CHECK(t_prev == Approx(c.run.t_end).epsilon(1e-12));
   }
 }
@@ -342,7 +342,7 @@ TEST_CASE("a run whose energy audit exceeds the bound reports no mu", "[methods]
   c.run.average_from = 1e-4;
   TempDir dir("stickslip_test_audit");
   RunOptions options{dir.path / "default", false, true};
-  const RunResult ok = run_case(c, options);
+  const Summary ok = run_case(c, options);
   const auto summary = nlohmann::json::parse(std::ifstream(options.out_dir / "summary.json"));
   CHECK(summary.at("energy_audit_bound").get<double>() == Approx(100 * c.solver.rtol));
   CHECK(std::abs(ok.energy_residual) < 100 * c.solver.rtol);
@@ -393,11 +393,11 @@ TEST_CASE("recording steps.csv does not change a run", "[slow][methods][steps]")
     const std::string tag = std::string(name) + "_" + to_string(m);
     INFO(tag);
     RunOptions options{dir.path / (tag + "_off"), false, true};
-    const RunResult off = run_case(c, options);
+    const Summary off = run_case(c, options);
     c.output.steps = true;
     options.out_dir = dir.path / (tag + "_on");
-    const RunResult on = run_case(c, options);
-    CHECK(on.stats.steps == off.stats.steps);
+    const Summary on = run_case(c, options);
+    CHECK(on.solver_stats.steps == off.solver_stats.steps);
     CHECK(on.mu == off.mu);
     auto slurp = [](const fs::path& f) {
       std::ifstream in(f);
@@ -563,7 +563,7 @@ TEST_CASE("dirk and bdf run from rest through the pair's first slips, at imex's 
   for (Method m : {Method::dirk, Method::bdf}) {
     c.solver.method = m;  // at the default tolerance, rtol 1e-6
     const fs::path out = dir.path / to_string(m);
-    const RunResult r = run_case(c, {out, false, true});  // throws if the audit fails
+    const Summary r = run_case(c, {out, false, true});  // throws if the audit fails
     INFO(to_string(m) << ": energy residual " << r.energy_residual);
     CHECK(std::abs(r.energy_residual) < 100 * c.solver.rtol);
     const auto onsets = slip_onsets(out, 0);

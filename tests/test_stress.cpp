@@ -227,7 +227,7 @@ void stress(const Row& row) {
 
   INFO("run " << row.name << " (t_end " << row.t_end << " s, max_steps " << row.max_steps
               << ", output in " << dir << ")");
-  std::optional<RunResult> result;
+  std::optional<Summary> result;
   std::string error;
   const auto start = std::chrono::steady_clock::now();
   {
@@ -244,7 +244,7 @@ void stress(const Row& row) {
   // stop that was not a step cap: "?".
   std::string steps;
   if (result) {
-    steps = std::to_string(result->stats.steps);
+    steps = std::to_string(result->solver_stats.steps);
   } else if (const auto at = error.find(" after "); at != std::string::npos) {
     steps = error.substr(at + 7, error.find(' ', at + 7) - at - 7);
   } else {
@@ -281,7 +281,7 @@ void stress(const Row& row) {
     CHECK(row.expect != Expect::stop);
     CHECK(std::isfinite(result->mu));
     CHECK(std::abs(result->energy_residual) <= bound);
-    CHECK(result->stats.steps <= row.max_steps);
+    CHECK(result->solver_stats.steps <= row.max_steps);
     CHECK(fs::exists(dir / "summary.json"));
   } else {
     CHECK(row.expect != Expect::finish);

@@ -64,10 +64,10 @@ int run_command(const std::string& case_file, const std::string& out, const std:
       options.restart = !restart.empty();
       dir = options.out_dir;
       install_stop_handlers();
-      const RunResult r = run_case(c, options);
+      const Summary r = run_case(c, options);
       std::printf(
-          "mu = %.6f  (theta = %.4f, %zu contacts, energy residual %.2e, %ld steps, %.1f s)\n",
-          r.mu, r.theta, r.contacts, r.energy_residual, r.stats.steps, r.wall_seconds);
+          "mu = %.6f  (theta = %.4f, %ld contacts, energy residual %.2e, %ld steps, %.1f s)\n",
+          r.mu, r.theta, r.contacts, r.energy_residual, r.solver_stats.steps, r.wall_seconds);
       std::printf("outputs in %s\n", options.out_dir.string().c_str());
       return 0;
     });

@@ -97,7 +97,7 @@ std::vector<std::string> result_files() {
 }
 }  // namespace
 
-RunResult run_case(const Case& c, const RunOptions& options) {
+Summary run_case(const Case& c, const RunOptions& options) {
   const auto wall_start = Clock::now();
   const auto& dir = options.out_dir;
   // A restart continues from the checkpoint: same case, same code; every
@@ -268,14 +268,14 @@ RunResult run_case(const Case& c, const RunOptions& options) {
   }
   flush_all();
 
-  RunResult result;
+  Summary summary;
   const double normal_force = system.normal_force();
-  result.contacts = contacts.size();
-  result.theta = system.coverage();
-  result.normal_force = normal_force;
-  result.mu = (y[impulse] - impulse_at_avg) / ((t_end - t_avg) * normal_force);
-  result.energy_residual = system.energy_residual(t_end, y, y0);
-  result.stats = total_stats();
+  summary.contacts = static_cast<long>(contacts.size());
+  summary.theta = system.coverage();
+  summary.F_N = normal_force;
+  summary.mu = (y[impulse] - impulse_at_avg) / ((t_end - t_avg) * normal_force);
+  summary.energy_residual = system.energy_residual(t_end, y, y0);
+  summary.solver_stats = total_stats();
   // A result whose energy audit is off by more than the tolerances can
   // explain is not reported (docs/STABILITY.md: |R| ≈ 0.01–10 × rtol in sound
   // runs; fixed steps are held to the default's bound).
@@ -291,34 +291,25 @@ RunResult run_case(const Case& c, const RunOptions& options) {
       c.solver.step > 0
           ? 0.0
           : absolute_tolerances(system, c.solver)[system.quadrature_index(System::work_in)];
-  if (!(std::abs(result.energy_residual * work) <= audit_bound * std::abs(work) + energy_atol)) {
+  if (!(std::abs(summary.energy_residual * work) <= audit_bound * std::abs(work) + energy_atol)) {
     char msg[400];
     std::snprintf(msg, sizeof msg,
                   "energy audit failed at t = %.9g s: relative residual %.3g exceeds the bound "
                   "%.3g ([solver] audit_bound, default 100 x rtol, %g for a fixed step); no "
                   "result is reported. %s",
-                  t_end, result.energy_residual, audit_bound, kFixedStepAuditBound,
+                  t_end, summary.energy_residual, audit_bound, kFixedStepAuditBound,
                   c.solver.step > 0 ? "Use a smaller [solver] step."
                                     : "Tighten [solver] rtol or atol_velocity.");
     throw IntegrationError(msg);
   }
-  result.wall_seconds = seconds_since(wall_start);
-
-  Summary summary;
-  summary.mu = result.mu;
-  summary.theta = result.theta;
-  summary.F_N = normal_force;
-  summary.contacts = static_cast<long>(result.contacts);
+  summary.wall_seconds = seconds_since(wall_start);
   summary.t_end = t_end;
   summary.average_from = t_avg;
-  summary.wall_seconds = result.wall_seconds;
-  summary.energy_residual = result.energy_residual;
   summary.energy_audit_bound = audit_bound;
   summary.steady_sliding_mu = system.steady_sliding_mu();
   summary.solver = integrator->description();
   if (c.solver.method == Method::automatic)
     summary.solver["chosen_by"] = choose_method(system, c.solver).reason;
-  summary.solver_stats = result.stats;
   summary.git_commit = kGitCommit;
   summary.sundials_version = SUNDIALS_VERSION;
   summary.case_json = to_json(c);
@@ -327,7 +318,7 @@ RunResult run_case(const Case& c, const RunOptions& options) {
   write_summary(dir, summary);
   // The run is complete: its checkpoint has nothing left to resume.
   std::filesystem::remove(dir / kCheckpointFile);
-  return result;
+  return summary;
 }
 
 }  // namespace stickslip

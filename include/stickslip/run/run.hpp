@@ -6,6 +6,7 @@
 
 #include "stickslip/case/case.hpp"
 #include "stickslip/integrate/integrator.hpp"
+#include "stickslip/output/summary.hpp"
 
 namespace stickslip {
 
@@ -27,20 +28,13 @@ struct Interrupted {
 // killing it.
 void install_stop_handlers();
 
-struct RunResult {
-  double mu = 0.0;
-  double theta = 0.0;
-  double normal_force = 0.0;
-  double energy_residual = 0.0;
-  double wall_seconds = 0.0;
-  std::size_t contacts = 0;
-  SolverStats stats;
-};
-
 // The output directory of a case: --out if given, else [output] dir, else
 // out/<case file stem> in the working directory.
 std::filesystem::path output_dir_for(const Case& c, const std::filesystem::path& out_flag);
 
-RunResult run_case(const Case& c, const RunOptions& options);
+// Runs the case and returns what it wrote to summary.json (IntegrationError
+// if the integration or its energy audit fails, OutputError for an unusable
+// output directory, Interrupted on SIGINT/SIGTERM).
+Summary run_case(const Case& c, const RunOptions& options);
 
 }  // namespace stickslip
