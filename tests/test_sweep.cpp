@@ -157,6 +157,18 @@ TEST_CASE("a sweep refuses results of another code version or case unless told t
   CHECK(nlohmann::json::parse(slurp(point / "summary.json"))["provenance"]["git_commit"] ==
         "0000000");  // untouched
 
+  // --any-version keeps it, and its row names the version that computed it.
+  const auto kept = box.run({"sweep", "tiny.toml", "--any-version"});
+  INFO(kept.out << kept.err);
+  CHECK(kept.code == 0);
+  CHECK_THAT(kept.out, Catch::Contains("4 already were"));
+  const auto table = slurp(box.work / "out" / "tiny" / "sweep.csv");
+  CHECK_THAT(table, Catch::Contains("coverage=0.5_seed=1,") && Catch::Contains(",0000000,"));
+  // Without it the point is stale: not counted (exit 1, not all finished).
+  CHECK(box.run({"sweep", "tiny.toml", "--report"}).code == 1);
+  CHECK_THAT(slurp(box.work / "out" / "tiny" / "sweep.csv"),
+             !Catch::Contains(",0000000,") && Catch::Contains("stale"));
+
   // A changed base case makes every point stale.
   box.write("base.toml", std::string(kBase) + "[drive]\nvelocity = 2e-3\n");
   const auto changed = box.run({"sweep", "tiny.toml"});

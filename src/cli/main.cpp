@@ -142,7 +142,8 @@ int sweep_shard(const stickslip::Sweep& sweep, const std::vector<stickslip::Swee
               options.jobs == 1 ? "" : "s", options.out_dir.c_str());
   std::fflush(stdout);
   const SweepOutcome outcome = run_sweep(sweep, points, options, std::cout);
-  const std::size_t finished = write_sweep_tables(sweep, points, options.out_dir);
+  const std::size_t finished =
+      write_sweep_tables(sweep, points, options.out_dir, options.any_version);
   if (outcome.interrupted_by) {
     std::fprintf(stderr, "shard interrupted: run the same command again to continue\n");
     return 128 + outcome.interrupted_by;
@@ -156,8 +157,8 @@ int sweep_shard(const stickslip::Sweep& sweep, const std::vector<stickslip::Swee
 }
 
 int sweep_command(const std::string& sweep_file, const std::string& out, int jobs,
-                  const std::vector<std::string>& sets, bool overwrite, bool report_only,
-                  const std::string& shard_text) {
+                  const std::vector<std::string>& sets, bool overwrite, bool any_version,
+                  bool report_only, const std::string& shard_text) {
   using namespace stickslip;
   return with_exit_codes([&] {
     const bool sharded = !shard_text.empty();
@@ -168,6 +169,7 @@ int sweep_command(const std::string& sweep_file, const std::string& out, int job
     options.out_dir = out.empty() ? std::filesystem::path("out") / sweep.source.stem()
                                   : std::filesystem::path(out);
     options.overwrite = overwrite;
+    options.any_version = any_version;
     options.executable = std::filesystem::read_symlink("/proc/self/exe");
     std::error_code ec;
     std::filesystem::create_directories(options.out_dir, ec);
@@ -178,7 +180,8 @@ int sweep_command(const std::string& sweep_file, const std::string& out, int job
       throw OutputError(options.out_dir.string() + ": output directory is not writable");
 
     if (report_only) {
-      const std::size_t finished = write_sweep_tables(sweep, points, options.out_dir);
+      const std::size_t finished =
+          write_sweep_tables(sweep, points, options.out_dir, options.any_version);
       std::printf("%zu of %zu points finished; tables: %s, %s\n", finished, points.size(),
                   (options.out_dir / "sweep.csv").c_str(),
                   (options.out_dir / "sweep_summary.csv").c_str());
@@ -204,11 +207,13 @@ int sweep_command(const std::string& sweep_file, const std::string& out, int job
     world.barrier();
     if (outcome.interrupted_by) {
       std::fprintf(stderr, "sweep interrupted: run the same command again to continue\n");
-      if (world.rank() == 0) write_sweep_tables(sweep, points, options.out_dir);
+      if (world.rank() == 0)
+        write_sweep_tables(sweep, points, options.out_dir, options.any_version);
       return 128 + outcome.interrupted_by;
     }
     if (world.rank() != 0) return outcome.failed > 0 ? 1 : 0;
-    const std::size_t finished = write_sweep_tables(sweep, points, options.out_dir);
+    const std::size_t finished =
+        write_sweep_tables(sweep, points, options.out_dir, options.any_version);
     std::printf("%zu of %zu points finished (%zu already were); tables: %s, %s\n", finished,
                 points.size(), outcome.skipped, (options.out_dir / "sweep.csv").c_str(),
                 (options.out_dir / "sweep_summary.csv").c_str());
@@ -248,7 +253,7 @@ int main(int argc, char** argv) {
   std::string sweep_file, sweep_out;
   std::vector<std::string> sweep_sets;
   int jobs = 0;
-  bool sweep_overwrite = false, sweep_report = false;
+  bool sweep_overwrite = false, sweep_any_version = false, sweep_report = false;
   std::string shard;
   CLI::App* sweep = app.add_subcommand(
       "sweep", "run every combination of a sweep file's values; skips points already finished");
@@ -261,6 +266,9 @@ int main(int argc, char** argv) {
   sweep->add_option("--set", sweep_sets, "override a case value for every point (repeatable)");
   sweep->add_flag("--overwrite", sweep_overwrite,
                   "recompute points computed by another code version or for another case");
+  sweep->add_flag("--any-version", sweep_any_version,
+                  "keep points finished by another code version (sweep.csv names each point's "
+                  "commit): for code changes that leave the numbers alone");
   sweep->add_flag("--report", sweep_report,
                   "only write sweep.csv and sweep_summary.csv from the points finished so far");
   sweep->add_option("--shard", shard,
@@ -276,8 +284,8 @@ int main(int argc, char** argv) {
   }
   if (*run) return run_command(case_file, out, restart, sets, overwrite, quiet);
   if (*sweep)
-    return sweep_command(sweep_file, sweep_out, jobs, sweep_sets, sweep_overwrite, sweep_report,
-                         shard);
+    return sweep_command(sweep_file, sweep_out, jobs, sweep_sets, sweep_overwrite,
+                         sweep_any_version, sweep_report, shard);
   if (*compare)
     return stickslip::compare_command(dir_a, dir_b, rtol, compare_out, std::cout, std::cerr);
   return 2;

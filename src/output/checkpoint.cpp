@@ -15,7 +15,10 @@ constexpr const char* kMagic = "stickslip-checkpoint 1";
 nlohmann::json restart_identity(const nlohmann::json& case_json) {
   nlohmann::json id = case_json;
   id.erase("source");
-  if (id.contains("output")) id["output"].erase("dir");
+  if (id.contains("output")) {
+    id["output"].erase("dir");
+    id["output"].erase("format");  // changes no number (a restart needs the same files anyway)
+  }
   if (id.contains("run")) id["run"].erase("checkpoint_every");  // may change between attempts
   return id;
 }

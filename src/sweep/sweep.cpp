@@ -21,6 +21,7 @@
 #include "stickslip/case/reader.hpp"
 #include "stickslip/output/checkpoint.hpp"
 #include "stickslip/output/summary.hpp"
+#include "stickslip/output/tables.hpp"
 #include "stickslip/output/writers.hpp"
 #include "stickslip/version.hpp"
 
@@ -125,7 +126,8 @@ const char* to_string(PointState s) {
   return "?";
 }
 
-PointState point_state(const SweepPoint& point, const fs::path& dir, std::string* why) {
+PointState point_state(const SweepPoint& point, const fs::path& dir, std::string* why,
+                       bool any_version) {
   std::optional<Summary> summary;
   try {
     summary = read_summary(dir);
@@ -136,9 +138,10 @@ PointState point_state(const SweepPoint& point, const fs::path& dir, std::string
   }
   if (!summary) {
     if (fs::exists(dir / "failed")) return PointState::failed;
-    return fs::exists(dir / "friction.csv") ? PointState::incomplete : PointState::absent;
+    return fs::exists(dir / "friction.csv") || fs::exists(dir / kHdf5File) ? PointState::incomplete
+                                                                           : PointState::absent;
   }
-  if (summary->git_commit != kGitCommit) {
+  if (!any_version && summary->git_commit != kGitCommit) {
     if (why) *why = "computed by code version " + summary->git_commit + ", this is " + kGitCommit;
     return PointState::stale;
   }
@@ -150,13 +153,13 @@ PointState point_state(const SweepPoint& point, const fs::path& dir, std::string
 }
 
 std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>& points,
-                               const fs::path& out_dir) {
+                               const fs::path& out_dir, bool any_version) {
   std::vector<std::optional<Summary>> summaries;
   std::vector<PointState> states;
   bool any_sync = false;
   for (const auto& p : points) {
     const fs::path dir = out_dir / p.name;
-    states.push_back(point_state(p, dir));
+    states.push_back(point_state(p, dir, nullptr, any_version));
     summaries.push_back(states.back() == PointState::finished ? read_summary(dir) : std::nullopt);
     any_sync = any_sync || (summaries.back() && summaries.back()->synchronization);
   }
@@ -287,7 +290,7 @@ SweepOutcome run_sweep(const Sweep& sweep, const std::vector<SweepPoint>& points
   std::size_t n_stale = 0;
   for (const auto& p : points) {
     std::string why;
-    const PointState state = point_state(p, options.out_dir / p.name, &why);
+    const PointState state = point_state(p, options.out_dir / p.name, &why, options.any_version);
     if (state == PointState::finished) {
       ++outcome.skipped;
       continue;
@@ -303,7 +306,8 @@ SweepOutcome run_sweep(const Sweep& sweep, const std::vector<SweepPoint>& points
     throw OutputError(
         stale +
         (n_stale > 1 ? " (and " + std::to_string(n_stale - 1) + " more points)" : std::string()) +
-        "; pass --overwrite to recompute them");
+        "; pass --overwrite to recompute them (or --any-version to keep those of another code "
+        "version)");
 
   struct Running {
     std::size_t index;

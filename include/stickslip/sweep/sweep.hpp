@@ -66,8 +66,11 @@ enum class PointState { absent, incomplete, finished, stale, failed };
 const char* to_string(PointState);
 
 // What the point's directory holds; `why` says what makes a point stale.
+// With `any_version`, a point finished by another code version counts as
+// finished (its row in sweep.csv names that version's git commit): for long
+// studies whose code changed in ways that leave the numbers alone.
 PointState point_state(const SweepPoint& point, const std::filesystem::path& dir,
-                       std::string* why = nullptr);
+                       std::string* why = nullptr, bool any_version = false);
 
 // sweep.csv (one row per point: swept values, status, μ, θ, slip statistics,
 // synchronization when two contacts are watched, solver statistics, wall time)
@@ -75,7 +78,7 @@ PointState point_state(const SweepPoint& point, const std::filesystem::path& dir
 // `average_over` for every other combination), from the points' summaries.
 // Both written atomically. Returns the number of finished points.
 std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>& points,
-                               const std::filesystem::path& out_dir);
+                               const std::filesystem::path& out_dir, bool any_version = false);
 
 // `--shard i/n` for scheduler job arrays: this process runs the points whose
 // index ≡ i (mod n). Throws CaseError unless 0 ≤ i < n, both integers.
@@ -88,6 +91,7 @@ struct SweepOptions {
   std::filesystem::path out_dir;
   int jobs = 1;                      // points run at once on this process
   bool overwrite = false;            // recompute points from another code version or case
+  bool any_version = false;          // keep points finished by another code version (point_state)
   int rank = 0, ranks = 1;           // this process's share: points with index % ranks == rank
                                      // (an MPI rank, or a shard of a job array)
   std::filesystem::path executable;  // the stickslip binary that runs each point
