@@ -18,7 +18,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from run_tables import read_table  # noqa: E402
+from run_tables import read_table, where  # noqa: E402
 
 
 def wrap(d: int, n: int) -> int:
@@ -50,6 +50,9 @@ def main() -> int:
         summary = json.loads((out / "summary.json").read_text())
         lattice = summary["case"]["lattice"]
         c = read_table(out, "contacts")
+        if c is None:
+            print(f"error: {where(out, 'contacts')}: not found", file=sys.stderr)
+            return 2
         dx = wrap(int(c["ix"][1]) - int(c["ix"][0]), lattice["nx"])
         dy = wrap(int(c["iy"][1]) - int(c["iy"][0]), lattice["ny"])
         material = summary["case"]["material"]

@@ -42,7 +42,8 @@ def read_table(out: Path, name: str):
 def _read_hdf5(path: Path, name: str):
     import h5py  # only runs in format "hdf5" need it
 
-    with h5py.File(path, "r") as f:
+    # Without the file lock: a run in progress holds it (what it flushed is readable).
+    with h5py.File(path, "r", locking=False) as f:
         if name not in f:
             return None
         group = f[name]
@@ -58,6 +59,8 @@ def _read_hdf5(path: Path, name: str):
                 text = {code: label for label, code in labels.items()}
                 values = np.array([text[int(v)] for v in values])
             if values.ndim == 2:
+                if "members" not in data.attrs:
+                    raise SystemExit(f"error: {path}:/{name}/{dataset}: 2-D without a members attribute")
                 ids = group[data.attrs["members"]][()]
                 for k, member in enumerate(ids):
                     columns[f"{dataset}_{member}"] = values[:, k]

@@ -139,6 +139,48 @@ TEST_CASE("a table reads back the same from CSV and HDF5, also after a restart's
   }
 }
 
+TEST_CASE("events, with their label column, read back the same from CSV and HDF5", "[tables]") {
+  const TableSpec spec{"events",
+                       {{.name = "t", .digits = 15},
+                        {.name = "contact", .type = ColumnType::integer},
+                        {.name = "kind", .type = ColumnType::label, .labels = {"slip", "stick"}},
+                        {.name = "speed"},
+                        {.name = "force"}}};
+  // Two contacts slipping at the same instant, as root finding may report.
+  const std::vector<Event> written{{1e-4, 0, EventKind::slip, 1.5e-3, 2e-2},
+                                   {1e-4, 3, EventKind::slip, 2.5e-3, 3e-2},
+                                   {2.25e-4, 0, EventKind::stick, 4.75e-4, 1e-2}};
+  for (const OutputFormat format : {OutputFormat::csv, OutputFormat::hdf5}) {
+    INFO(to_string(format));
+    const fs::path dir = fresh_dir(std::string("stickslip_test_events_") + to_string(format));
+    {
+      const auto table = make_table_store(format, dir, false)->create(spec);
+      for (const Event& e : written) {
+        const double row[5] = {e.t, double(e.contact), double(static_cast<int>(e.kind)), e.speed,
+                               e.force};
+        table->append(row);
+      }
+      table->flush();
+    }
+    const auto read = read_run_events(dir);
+    REQUIRE(read.size() == written.size());
+    for (std::size_t k = 0; k < read.size(); ++k) {
+      CHECK(read[k].t == written[k].t);
+      CHECK(read[k].contact == written[k].contact);
+      CHECK(read[k].kind == written[k].kind);
+      CHECK(same_number(written[k].speed, read[k].speed));
+      CHECK(same_number(written[k].force, read[k].force));
+    }
+    // A restart before the first event keeps none of them.
+    {
+      const auto table = make_table_store(format, dir, true)->resume(spec, 5e-5);
+      table->flush();
+    }
+    CHECK(read_run_events(dir).empty());
+    fs::remove_all(dir);
+  }
+}
+
 TEST_CASE("a resumed table that does not exist is an output error naming it", "[tables]") {
   for (const OutputFormat format : {OutputFormat::csv, OutputFormat::hdf5}) {
     const fs::path dir =

@@ -1,7 +1,9 @@
 // A run's tables in one HDF5 file: a group per table, a chunked dataset per
 // column that grows as rows come (a 2-D one [row × member] for columns that
 // share a `dataset`), rows buffered and written in blocks, the file flushed
-// whenever the recorders flush (a killed run leaves what was flushed).
+// whenever the recorders flush. A run stopped by a signal closes the file; a
+// killed one leaves what was flushed in practice (HDF5 without SWMR does not
+// promise it: it may write metadata between flushes).
 #include "hdf5_tables.hpp"
 
 #include <hdf5.h>
@@ -9,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <stdexcept>
 #include <type_traits>
 #include <utility>
 
@@ -45,16 +48,35 @@ class Handle {
 };
 
 // HDF5 prints its own error stack unless told not to; the errors thrown here
-// say what failed instead.
+// say what failed, with HDF5's innermost reason (why_hdf5).
 void silence_hdf5() {
   static const bool once = [] { return H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr) >= 0; }();
   (void)once;
 }
 
+// The innermost message of HDF5's error stack, e.g. "unable to lock file,
+// errno = 11, ...", as " (HDF5: ...)"; "" if the stack is empty.
+std::string why_hdf5() {
+  std::string reason;
+  H5Ewalk2(
+      H5E_DEFAULT, H5E_WALK_UPWARD,
+      [](unsigned, const H5E_error2_t* e, void* data) -> herr_t {
+        auto& r = *static_cast<std::string*>(data);
+        if (r.empty() && e->desc) r = e->desc;
+        return 0;
+      },
+      &reason);
+  return reason.empty() ? std::string() : " (HDF5: " + reason + ")";
+}
+
 // Rows kept in memory before they are written as one block (HDF5 writes of a
 // row each would cost more than the row).
 constexpr std::size_t kBlockRows = 4096;
-constexpr hsize_t kChunkRows = 1024;
+// Chunks of up to 1024 rows and at most 1 MiB (HDF5's default chunk cache),
+// however many contacts a 2-D dataset has.
+hsize_t chunk_rows(hsize_t width) {
+  return std::clamp<hsize_t>((hsize_t{1} << 17) / width, 1, 1024);
+}
 
 // One dataset of a table: the spec's columns it holds, in member order.
 struct DatasetLayout {
@@ -62,6 +84,8 @@ struct DatasetLayout {
   const Column* first = nullptr;  // type and unit
   std::vector<std::size_t> columns;
 };
+
+constexpr std::size_t kNoColumn = static_cast<std::size_t>(-1);
 
 std::vector<DatasetLayout> layout(const TableSpec& spec) {
   std::vector<DatasetLayout> sets;
@@ -71,9 +95,12 @@ std::vector<DatasetLayout> layout(const TableSpec& spec) {
     auto it = std::find_if(sets.begin(), sets.end(), [&](const auto& d) { return d.name == name; });
     if (it == sets.end()) it = sets.insert(sets.end(), DatasetLayout{name, &c, {}});
     const auto member = static_cast<std::size_t>(std::max(c.member, 0));
-    if (it->columns.size() <= member) it->columns.resize(member + 1);
+    if (it->columns.size() <= member) it->columns.resize(member + 1, kNoColumn);
     it->columns[member] = i;
   }
+  for (const DatasetLayout& d : sets)
+    if (std::count(d.columns.begin(), d.columns.end(), kNoColumn))
+      throw std::logic_error("table " + spec.name + ": dataset " + d.name + " misses a member");
   return sets;
 }
 
@@ -89,7 +116,8 @@ Handle memory_type(const Column& c) {
       Handle type(H5Tenum_create(H5T_NATIVE_INT8), H5Tclose);
       for (std::size_t k = 0; k < c.labels.size(); ++k) {
         const auto value = static_cast<std::int8_t>(k);
-        H5Tenum_insert(type.get(), c.labels[k].c_str(), &value);
+        if (H5Tenum_insert(type.get(), c.labels[k].c_str(), &value) < 0)
+          throw std::logic_error("label " + c.labels[k] + " of column " + c.name + why_hdf5());
       }
       return type;
     }
@@ -109,7 +137,7 @@ void write_text_attribute(hid_t object, const std::string& name, const std::stri
       H5Aclose);
   const char* data = text.c_str();
   if (!attribute.valid() || H5Awrite(attribute.get(), type.get(), &data) < 0)
-    throw OutputError(file.string() + ": cannot write the attribute " + name);
+    throw OutputError(file.string() + ": cannot write the attribute " + name + why_hdf5());
 }
 
 class Hdf5Table final : public Table {
@@ -130,7 +158,7 @@ class Hdf5Table final : public Table {
       const hsize_t width = d.columns.size();
       const bool wide = d.first->member >= 0;
       const hsize_t dims[2] = {0, width}, max[2] = {H5S_UNLIMITED, width};
-      const hsize_t chunk[2] = {kChunkRows, width};
+      const hsize_t chunk[2] = {chunk_rows(width), width};
       Handle space(H5Screate_simple(wide ? 2 : 1, dims, max), H5Sclose);
       Handle create(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
       H5Pset_chunk(create.get(), wide ? 2 : 1, chunk);
@@ -192,7 +220,7 @@ class Hdf5Table final : public Table {
 
  private:
   [[noreturn]] void fail(const std::string& why) const {
-    throw OutputError(path_.string() + ": /" + spec_.name + ": " + why);
+    throw OutputError(path_.string() + ": /" + spec_.name + ": " + why + why_hdf5());
   }
 
   static hsize_t rows_in(hid_t set) {
@@ -284,8 +312,8 @@ class Hdf5Store final : public TableStore {
     const hid_t id = resume ? H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT)
                             : H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
     if (id < 0)
-      throw OutputError(path.string() + ": cannot " +
-                        (resume ? "open for appending (missing, or not an HDF5 file)" : "create"));
+      throw OutputError(path.string() + ": cannot " + (resume ? "open for appending" : "create") +
+                        why_hdf5());
     file_ = std::make_shared<Handle>(id, H5Fclose);
   }
   std::unique_ptr<Table> create(const TableSpec& spec) override {
@@ -297,7 +325,7 @@ class Hdf5Store final : public TableStore {
   void set_attribute(const std::string& name, const std::string& text) override {
     write_text_attribute(file_->get(), name, text, path_);
     if (H5Fflush(file_->get(), H5F_SCOPE_GLOBAL) < 0)
-      throw OutputError(path_.string() + ": cannot flush");
+      throw OutputError(path_.string() + ": cannot flush" + why_hdf5());
   }
 
  private:
@@ -307,8 +335,15 @@ class Hdf5Store final : public TableStore {
 
 Handle open_for_reading(const fs::path& file) {
   silence_hdf5();
-  Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-  if (!f.valid()) throw CompareError(file.string() + ": cannot open (missing, or not HDF5)");
+  // Without taking the file lock: a run in progress holds it, and what it
+  // has flushed is worth reading (plots, compare) while it goes on.
+  Handle access(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  H5Pset_file_locking(access.get(), false, true);
+  Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, access.get()), H5Fclose);
+  // This process's own run has it open already (a recorder reading its table
+  // back), with the lock: HDF5 shares that open file only with the same flags.
+  if (!f.valid()) f = Handle(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!f.valid()) throw CompareError(file.string() + ": cannot open" + why_hdf5());
   return f;
 }
 
@@ -348,7 +383,8 @@ std::vector<std::pair<std::string, std::vector<double>>> read_hdf5_table(const f
   Handle group(H5Gopen2(f.get(), name.c_str(), H5P_DEFAULT), H5Gclose);
   if (!group.valid()) throw CompareError(where + ": no such table");
   H5G_info_t info;
-  H5Gget_info(group.get(), &info);
+  if (H5Gget_info(group.get(), &info) < 0)
+    throw CompareError(where + ": cannot list the datasets" + why_hdf5());
   // The datasets in the order they were made; a 2-D one names the dataset
   // that lists its members, which is not a column itself.
   struct Set {
@@ -401,6 +437,8 @@ std::vector<std::pair<std::string, std::vector<double>>> read_hdf5_table(const f
       throw CompareError(where + "/" + s.name + ": " + std::to_string(s.rows) + " rows, not " +
                          std::to_string(rows) + " as " + sets.front().name);
     if (s.members.empty()) {
+      if (s.width != 1)
+        throw CompareError(where + "/" + s.name + ": 2-D without a \"members\" attribute");
       columns.emplace_back(s.name, s.values);
       continue;
     }

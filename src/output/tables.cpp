@@ -114,8 +114,8 @@ TraceTable read_run_table(const fs::path& dir, const std::string& name) {
     throw CompareError(where + ": the first dataset is not \"t\"");
   TraceTable table;
   table.t = std::move(columns.front().second);
-  for (std::size_t i = 1; i < table.t.size(); ++i)
-    if (!std::isfinite(table.t[i]) || !(table.t[i] > table.t[i - 1]))
+  for (std::size_t i = 0; i < table.t.size(); ++i)
+    if (!std::isfinite(table.t[i]) || (i > 0 && !(table.t[i] > table.t[i - 1])))
       throw CompareError(where + "/t: row " + std::to_string(i) + ": time does not increase");
   for (std::size_t c = 1; c < columns.size(); ++c) {
     table.columns.push_back(std::move(columns[c].first));
@@ -141,7 +141,13 @@ std::vector<Event> read_run_events(const fs::path& dir) {
   for (std::size_t i = 0; i < events.size(); ++i) {
     Event& e = events[i];
     e.t = (*t)[i];
+    if (!std::isfinite(e.t))
+      throw CompareError(file.string() + ": /events/t: row " + std::to_string(i) +
+                         ": time is not finite");
     e.contact = static_cast<int>((*contact)[i]);
+    if (e.contact != (*contact)[i] || e.contact < 0)
+      throw CompareError(file.string() + ": /events/contact: row " + std::to_string(i) +
+                         ": not a contact id");
     const double k = (*kind)[i];
     if (k != static_cast<double>(EventKind::slip) && k != static_cast<double>(EventKind::stick))
       throw CompareError(file.string() + ": /events/kind: row " + std::to_string(i) +

@@ -263,7 +263,12 @@ Summary run_case(const Case& c, const RunOptions& options) {
       }
     }
   } catch (...) {
-    flush_all();
+    // Keep what was recorded; an output that cannot be flushed now must not
+    // hide why the run stopped.
+    try {
+      flush_all();
+    } catch (const std::exception&) {
+    }
     throw;
   }
   flush_all();
