@@ -13,6 +13,7 @@
 #include <system_error>
 #include <utility>
 
+#include "stickslip/output/json_number.hpp"
 #include "stickslip/output/summary.hpp"
 #include "stickslip/output/writers.hpp"
 
@@ -262,10 +263,6 @@ void compare_events(CompareResult& r) {
                            " without partner (A has " + std::to_string(ta.size()) + ", B " +
                            std::to_string(tb.size()) + ")");
   }
-}
-
-nlohmann::json number_or_null(double x) {
-  return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr);
 }
 
 }  // namespace

@@ -6,6 +6,8 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "stickslip/output/json_number.hpp"
+
 namespace stickslip {
 
 namespace {
@@ -42,14 +44,6 @@ std::vector<double> slip_times(std::span<const Event> events, int contact, doubl
   for (const Event& e : events_of(events, contact))
     if (e.kind == EventKind::slip && e.t >= t_from && e.t <= t_to) times.push_back(e.t);
   return times;
-}
-
-nlohmann::json number_or_null(double x) {
-  return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr);
-}
-
-nlohmann::json number_or_null(const std::optional<double>& x) {
-  return x ? number_or_null(*x) : nlohmann::json(nullptr);
 }
 
 struct XcorrPeak {

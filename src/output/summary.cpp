@@ -4,14 +4,11 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "stickslip/output/json_number.hpp"
 #include "stickslip/output/writers.hpp"
 
 namespace stickslip {
 namespace {
-
-nlohmann::json number_or_null(double x) {
-  return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr);
-}
 
 const nlohmann::json& field(const nlohmann::json& j, const char* name) {
   if (!j.is_object() || !j.contains(name))
