@@ -1,5 +1,5 @@
 // Every output of a run, one Recorder each (output/recorder.hpp), and the
-// registry that says which file each writes and when the case asks for it.
+// registry that says which table each writes and when the case asks for it.
 #include <algorithm>
 #include <array>
 #include <cmath>
