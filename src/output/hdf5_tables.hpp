@@ -13,7 +13,8 @@
 
 namespace stickslip {
 
-// A recorder's row has a value per column (std::logic_error otherwise).
+// A recorder's row has a value per column (std::logic_error otherwise); both
+// stores check it (defined in tables.cpp).
 void check_row(std::span<const double> row, std::size_t columns);
 
 // The store of a run in `format = "hdf5"`: `file` created (replacing any) or,

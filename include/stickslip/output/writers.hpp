@@ -4,16 +4,13 @@
 // atomically (temporary file, then rename) so a reader never sees half of
 // summary.json.
 
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <functional>
-#include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <span>
 #include <stdexcept>
 #include <string>
-#include <string_view>
 #include <vector>
 
 namespace stickslip {
