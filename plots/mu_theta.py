@@ -43,6 +43,13 @@ def curves(rows, label_key):
     return out
 
 
+def seed_count(pts) -> str:
+    """How many seeds the curve's points average, for its legend: a single seed has no error bar."""
+    counts = sorted({p[3] for p in pts})
+    n = str(counts[0]) if len(counts) == 1 else f"{counts[0]}–{counts[-1]}"
+    return f"{n} seed" + ("" if counts == [1] else "s")
+
+
 def plot(sweep_dirs, label_key: str, label_name: str, stem: str, title: str) -> int:
     data = {}
     for sweep_dir in sweep_dirs:
@@ -56,18 +63,18 @@ def plot(sweep_dirs, label_key: str, label_name: str, stem: str, title: str) -> 
         th = [p[0] for p in pts]
         mu = [p[1] for p in pts]
         sd = [p[2] for p in pts]
-        label = f"{label_name} = {value}" if value else None
+        label = f"{label_name} = {value}" if value else ""
+        label = (label + " " if label else "") + f"({seed_count(pts)})"
         ax.errorbar(th, mu, yerr=sd, marker="o", ms=4, capsize=3, lw=1, color=f"C{i}", label=label)
         for t, m, s, n, cycles in pts:
             what = "mu_whole_cycles" if cycles else "mu"
             print(f"{label_name}={value or '-'} theta={t:.4g} {what}_mean={m:.6g} {what}_std={s:.3g} n={n}")
     whole = all(p[4] for pts in data.values() for p in pts)
+    spread = " (mean ± sd over seeds)" if any(p[3] > 1 for pts in data.values() for p in pts) else ""
     ax.set_xlabel("coverage θ")
-    ax.set_ylabel("μ over whole cycles of $F_f$ (mean ± sd over seeds)" if whole
-                  else "friction coefficient μ (mean ± sd over seeds)")
+    ax.set_ylabel(("μ over whole cycles of $F_f$" if whole else "friction coefficient μ") + spread)
     ax.set_title(title, fontsize=10)
-    if any(data):
-        ax.legend(fontsize=8)
+    ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     fig.tight_layout()
     out = sweep_dirs[0]
