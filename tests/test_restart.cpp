@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <catch2/catch.hpp>
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -13,7 +14,9 @@
 #include <string>
 
 #include "stickslip/analysis/compare.hpp"
+#include "stickslip/output/checkpoint.hpp"
 #include "stickslip/output/recorder.hpp"
+#include "stickslip/output/summary.hpp"
 #include "stickslip/output/tables.hpp"
 #include "stickslip/output/writers.hpp"
 
@@ -93,8 +96,21 @@ TEST_CASE("a run stopped by SIGTERM and restarted agrees with an uninterrupted o
   CHECK(shell("cd " + dir + " && " + exe +
               " run two.toml --restart part --quiet --set drive.velocity=2e-3 2>/dev/null") == 2);
 
+  // A run's wall time spans its attempts, like its step counts: the restart
+  // adds its own to the checkpoint's (set here to stand for a long first attempt).
+  Checkpoint checkpoint = read_checkpoint(box / "part");
+  CHECK(checkpoint.wall_seconds > 0);
+  checkpoint.wall_seconds = 1000;
+  write_checkpoint(box / "part", checkpoint);
+  const auto restart_began = std::chrono::steady_clock::now();
   REQUIRE(shell("cd " + dir + " && " + exe + " run two.toml --restart part --quiet >/dev/null") ==
           0);
+  const std::chrono::duration<double> restart_took =
+      std::chrono::steady_clock::now() - restart_began;
+  const auto summary = read_summary(box / "part");
+  REQUIRE(summary);
+  CHECK(summary->wall_seconds >= 1000);
+  CHECK(summary->wall_seconds <= 1000 + restart_took.count());
   const auto full_t = times(box / "full", "friction");
   CHECK(full_t.size() == 1501);
   CHECK(times(box / "part", "friction") == full_t);  // same rows: no gap, no duplicate

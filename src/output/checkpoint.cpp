@@ -31,6 +31,7 @@ void write_checkpoint(const std::filesystem::path& dir, const Checkpoint& c) {
                                  {"impulse_at_average", c.impulse_at_average},
                                  {"state_size", c.state.size()},
                                  {"stats", c.stats},
+                                 {"wall_seconds", c.wall_seconds},
                                  {"case", c.case_json},
                                  {"git_commit", c.git_commit}};
   write_atomically(dir / kCheckpointFile, [&](std::ostream& out) {
@@ -59,6 +60,8 @@ Checkpoint read_checkpoint(const std::filesystem::path& dir) {
                                : h.at("impulse_at_average").get<double>();
     c.state.resize(h.at("state_size").get<std::size_t>());
     c.stats = h.at("stats").get<SolverStats>();
+    // Absent only in checkpoints of older code, which the restart refuses by version.
+    c.wall_seconds = h.value("wall_seconds", 0.0);
     c.case_json = h.at("case");
     c.git_commit = h.at("git_commit");
   } catch (const nlohmann::json::exception& e) {

@@ -167,6 +167,11 @@ Summary run_case(const Case& c, const RunOptions& options) {
     SolverStats s = stats_before;
     return s += integrator->stats();
   };
+  // Like the solver's counts, a run's cost spans its attempts: a restarted
+  // point's wall time is that of every attempt up to its checkpoint.
+  auto total_wall_seconds = [&] {
+    return (resume ? resume->wall_seconds : 0.0) + seconds_since(wall_start);
+  };
 
   auto record_events = [&](double t) {
     const auto roots = integrator->roots();
@@ -225,7 +230,14 @@ Summary run_case(const Case& c, const RunOptions& options) {
   double next_checkpoint = every > 0 ? (resume ? resume->t : 0.0) + every : kInfinity;
   auto checkpoint = [&](double t, long k) {
     flush_all();
-    write_checkpoint(dir, {t, k, impulse_at_avg, y, total_stats(), to_json(c), kGitCommit});
+    write_checkpoint(dir, {.t = t,
+                           .output_index = k,
+                           .impulse_at_average = impulse_at_avg,
+                           .state = y,
+                           .stats = total_stats(),
+                           .wall_seconds = total_wall_seconds(),
+                           .case_json = to_json(c),
+                           .git_commit = kGitCommit});
   };
   // A stop request ends the run at time t, after output row k: checkpoint
   // there (between output times if the request came mid-interval).
@@ -307,7 +319,7 @@ Summary run_case(const Case& c, const RunOptions& options) {
                                     : "Tighten [solver] rtol or atol_velocity.");
     throw IntegrationError(msg);
   }
-  summary.wall_seconds = seconds_since(wall_start);
+  summary.wall_seconds = total_wall_seconds();
   summary.t_end = t_end;
   summary.average_from = t_avg;
   summary.energy_audit_bound = audit_bound;

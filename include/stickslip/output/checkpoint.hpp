@@ -20,8 +20,9 @@ struct Checkpoint {
   long output_index = 0;            // rows k·interval written, k ≤ output_index
   double impulse_at_average = 0.0;  // ∫F_f dt at average_from (NaN before it)
   std::vector<double> state;
-  SolverStats stats;         // accumulated up to t
-  nlohmann::json case_json;  // the resolved case (without paths)
+  SolverStats stats;          // accumulated up to t
+  double wall_seconds = 0.0;  // accumulated over the run's attempts up to t
+  nlohmann::json case_json;   // the resolved case (without paths)
   std::string git_commit;
 };
 
