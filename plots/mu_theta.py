@@ -57,7 +57,7 @@ def plot(sweep_dirs, label_key: str, label_name: str, stem: str, title: str) -> 
         key = label_key if label_key and label_key in rows[0] else ""
         for value, pts in curves(rows, key).items():
             data.setdefault(value, []).extend(pts)
-    fig, ax = plt.subplots(figsize=(5.5, 4))
+    fig, ax = plt.subplots(figsize=(7, 4))
     for i, (value, pts) in enumerate(sorted(data.items(), key=lambda kv: float(kv[0]) if kv[0] else 0)):
         pts.sort()
         th = [p[0] for p in pts]
@@ -74,7 +74,7 @@ def plot(sweep_dirs, label_key: str, label_name: str, stem: str, title: str) -> 
     ax.set_xlabel("coverage θ")
     ax.set_ylabel(("μ over whole cycles of $F_f$" if whole else "friction coefficient μ") + spread)
     ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1))  # beside the axes: no point hidden
     ax.grid(alpha=0.3)
     fig.tight_layout()
     out = sweep_dirs[0]
