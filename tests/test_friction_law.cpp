@@ -27,6 +27,15 @@ TEST_CASE("dphi matches a central difference of phi", "[friction]") {
   }
 }
 
+TEST_CASE("phi_and_dphi is phi and dphi, to the bit", "[friction]") {
+  const FrictionLaw law{0.1};
+  for (double r : {0.0, 1e-300, 1e-12, 0.3, 1.0, 1.7, 40.0, 1e8}) {
+    const auto [phi, dphi] = law.phi_and_dphi(r);
+    CHECK(phi == law.phi(r));
+    CHECK(dphi == law.dphi(r));
+  }
+}
+
 TEST_CASE("contact Jacobian block matches finite differences away from rest", "[friction]") {
   const FrictionLaw law{0.1};
   const double scale = 6.5e5, eta_c = 1e5, v_star = 1e-3;

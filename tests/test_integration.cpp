@@ -49,6 +49,52 @@ TEST_CASE("implicit stage equation is solved to rounding, from rest to fast slip
     }
 }
 
+TEST_CASE("implicit stage equation: the root next to the predictor, found from it", "[stage]") {
+  // Site 0 moving along x: its stage equation s − γ a_c(s) = b reads
+  // h(λ) = λ − γ a_x(λ) = |b| for the speed λ, with a_x from rhs_implicit. On
+  // the weakening branch h falls where γ ε f0 |φ'|/(m v*) > 1 + γ η_c, so at
+  // γ = 1e-6 s a |b| between h's local maximum and minimum has three roots.
+  const Case c = two_contact_case();
+  const System s = make_system(c);
+  const std::int64_t wx = s.w_index(s.sites()[0].node, 0);
+  const double v_star = s.sites()[0].v_star, gamma = 1e-6;
+  std::vector<double> y(static_cast<std::size_t>(s.size())), f(y.size());
+  auto h = [&](double lambda) {
+    y[wx] = lambda;
+    s.rhs_implicit(0.0, y, f);
+    return lambda - gamma * f[wx];
+  };
+  // h's local maximum and minimum, on a grid in ln λ over (v*, 1e4 v*).
+  std::vector<double> grid, values;
+  for (double lambda = v_star; lambda < 1e4 * v_star; lambda *= 1.01) {
+    grid.push_back(lambda);
+    values.push_back(h(lambda));
+  }
+  std::size_t top = 0;
+  while (top + 1 < grid.size() && values[top + 1] >= values[top]) ++top;
+  std::size_t bottom = top;
+  while (bottom + 1 < grid.size() && values[bottom + 1] <= values[bottom]) ++bottom;
+  REQUIRE(top > 0);
+  REQUIRE(bottom > top);
+  REQUIRE(bottom + 1 < grid.size());
+  const double b_len = 0.5 * (values[top] + values[bottom]);
+
+  auto solve = [&](double predictor_speed) {
+    return s.site_stage(0, gamma, {b_len, 0.0}, predictor_speed, false);
+  };
+  // The low root lies below h's maximum, the high one above its minimum.
+  const ContactStage low = solve(0.9 * grid[top]), high = solve(1.1 * grid[bottom]);
+  CHECK(low.s[0] < grid[top]);
+  CHECK(high.s[0] > grid[bottom]);
+  for (const ContactStage& root : {low, high}) {
+    CHECK(std::abs(h(root.s[0]) - b_len) <= 1e-13 * b_len);
+    CHECK(root.s[1] == 0.0);
+  }
+  // From a predictor at a root, Newton confirms it at once.
+  CHECK(solve(low.s[0]).iterations <= 2);
+  CHECK(solve(high.s[0]).iterations <= 2);
+}
+
 TEST_CASE("energy audit residual shrinks as the tolerance is tightened", "[audit]") {
   // From rest through the first slips of the weak contact: the audit must
   // close better when the integration is more accurate.

@@ -321,22 +321,29 @@ ContactStage System::site_stage(std::size_t j, double gamma, std::array<double, 
   if (b_len == 0.0) return pure_damping();
   auto g = [&](double lambda) { return lambda * damping + gs * law_.phi(lambda / v_star) - b_len; };
   auto dg = [&](double lambda) { return damping + gs * law_.dphi(lambda / v_star) / v_star; };
+  // g(λ) and dg/dx (x = ln λ), sharing one evaluation of φ.
+  auto g_and_slope = [&](double lambda) {
+    const auto [phi, dphi] = law_.phi_and_dphi(lambda / v_star);
+    return std::array{lambda * damping + gs * phi - b_len, lambda * (damping + gs * dphi / v_star)};
+  };
 
   double hi = b_len / damping;
   // Below this speed φ is under 1e-300: the force is pure damping.
   double lo = v_star * 1e-40;
   if (hi <= lo || g(lo) >= 0.0) return pure_damping();
-  // The predictor's speed (b itself when gamma is small) picks the bracket.
+  // Newton starts from the predictor's speed, which is near the root when the
+  // step is small (b itself when gamma is small); its first iteration puts the
+  // predictor at one end of the bracket, so the root found is on the
+  // predictor's side. A predictor outside the bracket says nothing: start in
+  // its middle.
   double lambda = std::clamp(predictor_speed, lo, hi);
-  if (lambda > lo && lambda < hi) (g(lambda) < 0.0 ? lo : hi) = lambda;
-  lambda = std::sqrt(lo * hi);
+  if (!(lambda > lo && lambda < hi)) lambda = std::sqrt(lo * hi);
   bool converged = false;
   for (int it = 0; it < 200 && !converged; ++it) {
     ++out.iterations;
-    const double gl = g(lambda);
+    const auto [gl, slope] = g_and_slope(lambda);
     if (gl == 0.0) break;
     (gl < 0.0 ? lo : hi) = lambda;
-    const double slope = lambda * dg(lambda);  // dg/dx, x = ln λ
     double next = slope > 0.0 ? lambda * std::exp(-gl / slope) : 0.0;
     if (!(next > lo && next < hi)) next = std::sqrt(lo * hi);  // bisect in x
     converged = std::abs(next - lambda) <= 1e-15 * lambda || hi - lo <= 1e-15 * hi;

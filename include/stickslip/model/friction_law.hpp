@@ -27,6 +27,15 @@ struct FrictionLaw {
     const double l = std::log10(r);
     return -2.0 * shape * l * std::exp(-shape * l * l) / (r * std::numbers::ln10);
   }
+
+  // {φ(r), φ'(r)}, equal to phi(r) and dphi(r), from one logarithm and one
+  // exponential: Newton on a contact's stage equation needs both every iteration.
+  std::array<double, 2> phi_and_dphi(double r) const {
+    if (!(r > 0.0)) return {0.0, 0.0};
+    const double l = std::log10(r);
+    const double phi = std::exp(-shape * l * l);
+    return {phi, -2.0 * shape * l * phi / (r * std::numbers::ln10)};
+  }
 };
 
 // In-plane contact force per unit mass, a = F_contact/m, with
