@@ -22,11 +22,7 @@ struct FrictionLaw {
 
   // φ'(r) = −2c log10(r) φ(r) / (r ln 10); tends to 0 at rest since φ decays
   // faster than any power of r.
-  double dphi(double r) const {
-    if (!(r > 0.0)) return 0.0;
-    const double l = std::log10(r);
-    return -2.0 * shape * l * std::exp(-shape * l * l) / (r * std::numbers::ln10);
-  }
+  double dphi(double r) const { return phi_and_dphi(r)[1]; }
 
   // {φ(r), φ'(r)}, equal to phi(r) and dphi(r), from one logarithm and one
   // exponential: Newton on a contact's stage equation needs both every iteration.
