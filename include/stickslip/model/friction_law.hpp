@@ -54,9 +54,9 @@ inline std::array<double, 4> contact_jacobian(const FrictionLaw& law, double for
                                               double eta_c, double v_star, double sx, double sy) {
   const double speed = std::hypot(sx, sy);
   if (!(speed > 0.0)) return {-eta_c, 0.0, 0.0, -eta_c};
-  const double r = speed / v_star;
-  const double radial = force_scale * law.dphi(r) / v_star;    // along ŝ
-  const double tangential = force_scale * law.phi(r) / speed;  // across ŝ
+  const auto [phi, dphi] = law.phi_and_dphi(speed / v_star);
+  const double radial = force_scale * dphi / v_star;    // along ŝ
+  const double tangential = force_scale * phi / speed;  // across ŝ
   const double nx = sx / speed, ny = sy / speed;
   const double d = radial - tangential;
   return {-(tangential + d * nx * nx) - eta_c, -d * nx * ny, -d * ny * nx,
