@@ -5,10 +5,6 @@
 
 namespace stickslip {
 
-double default_atol_velocity(double drive_velocity) {
-  return drive_velocity > 0 ? std::min(1e-7, 1e-4 * drive_velocity) : 1e-7;
-}
-
 const char* to_string(GradDiv g) {
   switch (g) {
     case GradDiv::paper:
@@ -90,6 +86,18 @@ nlohmann::json to_json(const Case& c) {
   const auto& m = c.material;
   const auto& i = c.interface;
   const auto& s = c.solver;
+  json solver = {{"method", to_string(s.method)},
+                 {"linear_solver", to_string(s.linear_solver)},
+                 {"order", s.order},
+                 {"step", s.step},
+                 {"rtol", s.rtol},
+                 {"max_steps", s.max_steps},
+                 {"audit_bound", s.audit_bound},
+                 {"threads", s.threads}};
+  // Unset absolute tolerances follow rtol (integrate/tolerances.hpp); an
+  // absent key reads back as unset.
+  if (s.atol_displacement > 0) solver["atol_displacement"] = s.atol_displacement;
+  if (s.atol_velocity > 0) solver["atol_velocity"] = s.atol_velocity;
   return {
       {"source", c.source.string()},
       {"lattice", {{"nx", l.nx}, {"ny", l.ny}, {"nz", l.nz}, {"spacing", l.spacing}}},
@@ -117,17 +125,7 @@ nlohmann::json to_json(const Case& c) {
         {"average_from", c.run.average_from},
         {"initial", to_string(c.run.initial)},
         {"checkpoint_every", c.run.checkpoint_every}}},
-      {"solver",
-       {{"method", to_string(s.method)},
-        {"linear_solver", to_string(s.linear_solver)},
-        {"order", s.order},
-        {"step", s.step},
-        {"rtol", s.rtol},
-        {"atol_displacement", s.atol_displacement},
-        {"atol_velocity", s.atol_velocity},
-        {"max_steps", s.max_steps},
-        {"audit_bound", s.audit_bound},
-        {"threads", s.threads}}},
+      {"solver", solver},
       {"output",
        {{"dir", c.output.dir.string()},
         {"interval", c.output.interval},

@@ -536,8 +536,6 @@ Case parse_case(std::string_view toml_text, const std::filesystem::path& source,
   c.source = source;
   read_tables(r, root, c);
   check_consistency(r, c);
-  if (!r.given.count("solver.atol_velocity"))
-    c.solver.atol_velocity = default_atol_velocity(c.drive.velocity);
   if (!c.output.dir.empty() && c.output.dir.is_relative())
     c.output.dir = source.parent_path() / c.output.dir;
   return c;

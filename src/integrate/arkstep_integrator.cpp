@@ -46,7 +46,7 @@ ARKODE_DIRKTableID dirk_table(int order) {
 ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& solver,
                                      std::span<const double> y0, double t0, double t_stop,
                                      IntegratorOptions options)
-    : SteppingIntegrator(solver, std::move(options), t0),
+    : SteppingIntegrator(solver, std::move(options), t0, t_stop),
       system_(system),
       setup_(method_setup(solver)) {
   y_ = make_serial_vector(y0, ctx_);
@@ -94,7 +94,7 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
                     std::span<const double>, std::span<double> z) {
             return system.solve_implicit_stage(gamma, predictor, z);
           },
-          stage_stats_);
+          stage_stats_, pending_);
       check(ARKStepSetNonlinearSolver(arkode_mem_.get(), stage_solver_.get()),
             "ARKStepSetNonlinearSolver");
       break;
@@ -107,7 +107,8 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
       lattice_stages_ = std::make_unique<LatticeStageSolver>(system);
       stage_solver_ = make_exact_stage_solver(
           ctx_, StagePackage::arkstep,
-          std::bind_front(&LatticeStageSolver::solve, lattice_stages_.get()), stage_stats_);
+          std::bind_front(&LatticeStageSolver::solve, lattice_stages_.get()), stage_stats_,
+          pending_);
       check(ARKStepSetNonlinearSolver(arkode_mem_.get(), stage_solver_.get()),
             "ARKStepSetNonlinearSolver");
       break;

@@ -15,7 +15,7 @@ namespace stickslip {
 CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solver,
                                  std::span<const double> y0, double t0, double t_stop,
                                  IntegratorOptions options)
-    : SteppingIntegrator(solver, std::move(options), t0),
+    : SteppingIntegrator(solver, std::move(options), t0, t_stop),
       system_(system),
       setup_(method_setup(solver)),
       // BDF of order ≥ 3 is not A-stable and the lattice modes are lightly
@@ -40,7 +40,7 @@ CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solve
     lattice_stages_ = std::make_unique<LatticeStageSolver>(system);
     stage_solver_ = make_exact_stage_solver(
         ctx_, StagePackage::cvode,
-        std::bind_front(&LatticeStageSolver::solve, lattice_stages_.get()), stage_stats_);
+        std::bind_front(&LatticeStageSolver::solve, lattice_stages_.get()), stage_stats_, pending_);
     check(CVodeSetNonlinearSolver(cvode_mem_.get(), stage_solver_.get()),
           "CVodeSetNonlinearSolver");
   } else {

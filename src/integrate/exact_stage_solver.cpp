@@ -4,6 +4,7 @@
 #include <cvode/cvode.h>
 
 #include "stickslip/integrate/sundials.hpp"
+#include "stickslip/model/system.hpp"
 
 namespace stickslip {
 namespace {
@@ -12,6 +13,7 @@ struct Content {
   StagePackage package;
   ExactStageSolve solve;
   StageStats* stats;
+  std::exception_ptr* pending;
 };
 
 Content& content(SUNNonlinearSolver nls) {
@@ -57,9 +59,12 @@ int solve(SUNNonlinearSolver nls, N_Vector, N_Vector correction, N_Vector weight
   ++c.stats->solves;
   try {
     c.stats->last_iterations = c.solve(t, gamma, as_span(predictor), as_span(weights), as_span(z));
-  } catch (const std::exception&) {
+  } catch (const StageNotConverged&) {
     ++c.stats->failures;
     return SUN_NLS_CONV_RECVR;  // the integrator retries with a smaller step
+  } catch (...) {
+    *c.pending = std::current_exception();  // a bug: stop, and say what it was
+    return SUN_NLS_EXT_FAIL;
   }
   c.stats->iterations += c.stats->last_iterations;
   N_VLinearSum(1.0, z, -1.0, predictor, correction);
@@ -104,10 +109,11 @@ int num_conv_fails(SUNNonlinearSolver nls, long* n) {
 }  // namespace
 
 NonlinearSolverPtr make_exact_stage_solver(SUNContext ctx, StagePackage package,
-                                           ExactStageSolve solve_stage, StageStats& stats) {
+                                           ExactStageSolve solve_stage, StageStats& stats,
+                                           std::exception_ptr& pending) {
   SUNNonlinearSolver nls = SUNNonlinSolNewEmpty(ctx);
   check_created(nls, "SUNNonlinSolNewEmpty");
-  nls->content = new Content{package, std::move(solve_stage), &stats};
+  nls->content = new Content{package, std::move(solve_stage), &stats, &pending};
   nls->ops->gettype = get_type;
   nls->ops->initialize = succeed;
   nls->ops->solve = solve;

@@ -9,21 +9,6 @@
 
 namespace stickslip {
 
-std::vector<double> absolute_tolerances(const System& system, const SolverParams& solver) {
-  const std::int64_t n = system.num_nodes();
-  std::vector<double> atol(static_cast<std::size_t>(system.size()));
-  std::fill(atol.begin(), atol.begin() + 3 * n, solver.atol_displacement);
-  std::fill(atol.begin() + 3 * n, atol.begin() + 6 * n, solver.atol_velocity);
-  const double k1 = system.mass() * system.g1() / (system.spacing() * system.spacing());
-  const double energy = k1 * system.spacing() * solver.atol_displacement;
-  const double c_l = std::sqrt(system.g1() + system.g2());
-  atol[system.quadrature_index(System::work_in)] = energy;
-  atol[system.quadrature_index(System::dissipated)] = energy;
-  atol[system.quadrature_index(System::friction_impulse)] =
-      k1 * solver.atol_displacement * system.spacing() / c_l;
-  return atol;
-}
-
 MethodSetup method_setup(const SolverParams& solver) {
   const bool klu = solver.linear_solver == LinearSolver::klu;
   const StageSolve implicit = klu ? StageSolve::newton_klu : StageSolve::exact_lattice;
@@ -72,16 +57,16 @@ MethodChoice choose_method(const System& system, const SolverParams& solver) {
             "method = \"auto\": bdf, since no contact has v* below the drive "
             "speed (steady sliding or creep, where its steps grow; "
             "docs/PERFORMANCE.md)"};
-  return {Method::imex, "method = \"auto\": imex, since " + std::to_string(weak) + " of " +
+  return {Method::dirk, "method = \"auto\": dirk, since " + std::to_string(weak) + " of " +
                             std::to_string(system.contacts().size()) +
-                            " contacts have v* below the drive speed and stick-slip, where imex "
-                            "is as fast at equal accuracy (docs/PERFORMANCE.md)"};
+                            " contacts have v* below the drive speed and stick-slip, where dirk "
+                            "is the fastest at equal accuracy (docs/PERFORMANCE.md)"};
 }
 
 std::unique_ptr<Integrator> make_integrator(const System& system, const SolverParams& solver,
                                             std::span<const double> y0, double t_stop,
                                             IntegratorOptions options, double t0) {
-  SolverParams chosen = solver;
+  SolverParams chosen = with_absolute_tolerances(system, solver);
   chosen.method = choose_method(system, solver).method;
   if (method_setup(chosen).package == Package::cvode)
     return std::make_unique<CvodeIntegrator>(system, chosen, y0, t0, t_stop, std::move(options));

@@ -152,7 +152,7 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
     beta_ = trial_;
     norm = trial_norm;
   }
-  throw std::runtime_error("the contacts' coupled stage equations did not converge");
+  throw StageNotConverged("the contacts' coupled stage equations did not converge");
 }
 
 }  // namespace stickslip

@@ -8,17 +8,20 @@
 namespace stickslip {
 
 SteppingIntegrator::SteppingIntegrator(const SolverParams& solver, IntegratorOptions options,
-                                       double t0)
-    : solver_(solver), options_(std::move(options)), t_last_step_(t0) {}
+                                       double t0, double t_stop)
+    : solver_(solver), options_(std::move(options)), t_stop_(t_stop), t_last_step_(t0) {}
 
 void SteppingIntegrator::init_stepping(std::size_t watched_contacts) {
   roots_.assign(watched_contacts, 0);
-  if (options_.on_step) pending_y_.reset(N_VClone(y_.get()));
+  pending_y_.reset(N_VClone(y_.get()));
 }
 
 double SteppingIntegrator::advance(double t_out, std::span<double> y) {
   std::fill(roots_.begin(), roots_.end(), 0);
-  return options_.on_step ? advance_stepwise(t_out, y) : advance_normal(t_out, y);
+  // Stepwise until the first step is taken (its h0 then comes from t_stop,
+  // not t_out) and while a root found beyond an output time waits.
+  const bool stepwise = options_.on_step || pending_root_ || steps_taken() == 0;
+  return stepwise ? advance_stepwise(t_out, y) : advance_normal(t_out, y);
 }
 
 double SteppingIntegrator::finish(double t, std::span<double> y) {
@@ -87,7 +90,8 @@ double SteppingIntegrator::advance_stepwise(double t_out, std::span<double> y) {
         return finish(t_now, y);
       }
     }
-    const int flag = evolve(t_out, &t, true);
+    // In ONE_STEP mode the target only sets the first step's size.
+    const int flag = evolve(t_stop_, &t, true);
     if (flag < 0) throw_failure(flag, t);
     record_step();
     if (flag != kRoot) continue;
@@ -105,6 +109,7 @@ double SteppingIntegrator::advance_stepwise(double t_out, std::span<double> y) {
 }
 
 void SteppingIntegrator::record_step() {
+  if (!options_.on_step) return;
   const double t = current_time();
   // After a root or an output inside a step, ONE_STEP mode first hands back
   // that same step: not a new one.

@@ -350,7 +350,7 @@ ContactStage System::site_stage(std::size_t j, double gamma, std::array<double, 
     lambda = next;
   }
   if (!std::isfinite(lambda))
-    throw std::runtime_error("contact stage solve produced a non-finite speed");
+    throw StageNotConverged("contact stage solve produced a non-finite speed");
   const double scale = lambda / b_len;
   out.s = {bx * scale, by * scale};
   if (derivative) {

@@ -14,6 +14,7 @@
 
 #include "stickslip/analysis/events.hpp"
 #include "stickslip/integrate/sundials.hpp"
+#include "stickslip/integrate/tolerances.hpp"
 #include "stickslip/model/contacts.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/output/checkpoint.hpp"
@@ -309,14 +310,17 @@ Summary run_case(const Case& c, const RunOptions& options) {
           ? 0.0
           : absolute_tolerances(system, c.solver)[system.quadrature_index(System::work_in)];
   if (!(std::abs(summary.energy_residual * work) <= audit_bound * std::abs(work) + energy_atol)) {
-    char msg[400];
+    char msg[512];
     std::snprintf(msg, sizeof msg,
                   "energy audit failed at t = %.9g s: relative residual %.3g exceeds the bound "
                   "%.3g ([solver] audit_bound, default 100 x rtol, %g for a fixed step); no "
                   "result is reported. %s",
                   t_end, summary.energy_residual, audit_bound, kFixedStepAuditBound,
                   c.solver.step > 0 ? "Use a smaller [solver] step."
-                                    : "Tighten [solver] rtol or atol_velocity.");
+                  : c.solver.atol_velocity > 0 || c.solver.atol_displacement > 0
+                      ? "Tighten [solver] rtol and the atol_* the case sets (or leave them "
+                        "unset: they follow rtol)."
+                      : "Tighten [solver] rtol.");
     throw IntegrationError(msg);
   }
   summary.wall_seconds = total_wall_seconds();
@@ -325,6 +329,7 @@ Summary run_case(const Case& c, const RunOptions& options) {
   summary.energy_audit_bound = audit_bound;
   summary.steady_sliding_mu = system.steady_sliding_mu();
   summary.solver = integrator->description();
+  if (c.solver.step == 0) summary.solver.update(describe_tolerances(system, c.solver));
   if (c.solver.method == Method::automatic)
     summary.solver["chosen_by"] = choose_method(system, c.solver).reason;
   summary.git_commit = kGitCommit;

@@ -84,8 +84,10 @@ struct SolverParams {
   int order = 0;      // 0: the method's default (bdf: 2, see MODEL.md §12)
   double step = 0.0;  // > 0: fixed step [s], adaptivity off (ARKStep methods and rk4)
   double rtol = 1e-6;
-  double atol_displacement = 1e-12;  // [m]
-  double atol_velocity = 1e-7;       // [m/s]; a case file's default: default_atol_velocity()
+  // 0 (unset): rtol times the case's own scale (integrate/tolerances.hpp), so
+  // that rtol alone controls the error.
+  double atol_displacement = 0.0;  // [m]
+  double atol_velocity = 0.0;      // [m/s]
   long max_steps = 50'000'000;       // over the whole run
   // Largest accepted |energy-audit residual| at t_end; 0: 100 × rtol, or
   // 1e-4 for a fixed step. Beyond it the run fails and reports no μ.
@@ -124,11 +126,6 @@ struct Case {
   OutputParams output;
 };
 
-// atol_velocity when a case does not set it: 1e-4 of the drive speed, at
-// most 1e-7 m/s (the paper's drive 1e-3 m/s). A fixed 1e-7 left slow drives
-// unresolved: at v = 1e-6 the energy audit was off by ~1e2 (docs/STABILITY.md).
-double default_atol_velocity(double drive_velocity);
-
 // The case as resolved (every parameter, defaults filled in), for summary.json.
 nlohmann::json to_json(const Case& c);
 
@@ -139,8 +136,9 @@ const char* to_string(LinearSolver);
 const char* to_string(OutputFormat);
 
 // The method whose rules (fixed step, orders) a case is validated against:
-// itself, or for "auto" imex, whose rules are the narrower of the two methods
-// "auto" chooses between (imex and dirk; see choose_method in integrator.hpp).
+// itself, or for "auto" imex, whose rules are the narrowest of the methods
+// "auto" chooses between (imex for a fixed step, else dirk or bdf; see
+// choose_method in integrator.hpp).
 Method validated_as(Method requested);
 
 }  // namespace stickslip

@@ -10,6 +10,7 @@
 
 #include <sundials/sundials_nonlinearsolver.h>
 
+#include <exception>
 #include <functional>
 #include <memory>
 #include <span>
@@ -32,8 +33,8 @@ struct StageStats {
 
 // Solves z − γ f_I(t, z) = b: z holds b on entry and the solution on return;
 // `predictor` is the integrator's guess, `weights` its error weights. Returns
-// iterations; throws std::runtime_error when it fails (the integrator then
-// retries with a smaller step).
+// iterations; throws StageNotConverged (model/system.hpp) when it fails, and
+// the integrator retries with a smaller step.
 using ExactStageSolve =
     std::function<long(double t, double gamma, std::span<const double> predictor,
                        std::span<const double> weights, std::span<double> z)>;
@@ -41,7 +42,10 @@ using ExactStageSolve =
 enum class StagePackage { arkstep, cvode };
 
 // `stats` must outlive the solver.
+// Any exception other than StageNotConverged lands in `pending` and fails the
+// step unrecoverably; the adapter rethrows it after the SUNDIALS call returns.
 NonlinearSolverPtr make_exact_stage_solver(SUNContext ctx, StagePackage package,
-                                           ExactStageSolve solve, StageStats& stats);
+                                           ExactStageSolve solve, StageStats& stats,
+                                           std::exception_ptr& pending);
 
 }  // namespace stickslip

@@ -11,6 +11,7 @@
 
 #include "stickslip/case/case.hpp"
 #include "stickslip/integrate/solver_stats.hpp"
+#include "stickslip/integrate/tolerances.hpp"
 #include "stickslip/model/system.hpp"
 
 namespace stickslip {
@@ -65,12 +66,10 @@ class Integrator {
   // Integrates toward t_out and returns the time reached: t_out, or earlier
   // when a watched contact starts or stops slipping (then roots() says which),
   // or when poll() asked to stop (then every root is 0). y receives the state
-  // at the returned time; output times are interpolated, not stepped to. The
-  // step sequence still depends a little on them: on the regression case
-  // (tests/test_regression.cpp) an interval of 1e-8 s instead of 1e-6 s took
-  // 16 683 steps instead of 16 789 and moved mu by 6e-7 relative, well inside
-  // the tolerance; the cause is not known. More than [solver] max_steps steps
-  // in all (counted from this integrator's start) throw IntegrationError.
+  // at the returned time; output times are interpolated, not stepped to, and
+  // do not change the steps (stepping_integrator.hpp). More than [solver]
+  // max_steps steps in all (counted from this integrator's start) throw
+  // IntegrationError.
   virtual double advance(double t_out, std::span<double> y) = 0;
   // After advance returned early: per watched contact +1 (slip), −1 (stick), 0.
   virtual std::span<const int> roots() const = 0;
@@ -79,19 +78,15 @@ class Integrator {
   virtual nlohmann::json description() const = 0;
 };
 
-// Absolute tolerance of every state component: displacements and velocities
-// from the case; the quadratures of the energy audit and of μ get the scale one
-// displacement tolerance makes of them (k1 a · atol_u for energies,
-// k1 · atol_u · a / c_l for the impulse), so they are controlled relatively.
-std::vector<double> absolute_tolerances(const System& system, const SolverParams& solver);
-
 // The method "auto" runs, and why (summary.json says both). The rule follows
-// the work-precision benchmarks (docs/PERFORMANCE.md): where no contact can
-// stick-slip at the drive speed (every v* ≥ v: steady sliding, creep) the
-// implicit bdf wins by 40–100×, its steps growing to ~1e-4 s; where some
-// can, imex, whose steps the lattice holds below ~2e-7 s: with dirk and bdf
-// the block loads past the force at which it slips, so the slips come late
-// and too large (cause open, docs/PERFORMANCE.md). A fixed step keeps imex.
+// the work-precision benchmarks at equal accuracy against converged runs
+// (docs/PERFORMANCE.md): where no contact can stick-slip at the drive speed
+// (every v* ≥ v: steady sliding, creep) bdf wins by 40–100×, its steps
+// growing to ~1e-4 s; where some can, dirk: once the absolute tolerances
+// follow rtol (tolerances.hpp) its slips are as accurate as imex's, whose
+// steps the explicit lattice holds below ~2e-7 s and the creep far below.
+// (dirk's late slips of earlier measurements were the fixed velocity
+// tolerance of 1e-7 m/s.) A fixed step keeps imex.
 struct MethodChoice {
   Method method;
   std::string reason;

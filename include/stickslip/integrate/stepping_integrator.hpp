@@ -6,6 +6,13 @@
 // interpolates outputs exactly as normal mode does, so recording steps never
 // changes a run. Each adapter supplies the package's calls; ARKStep and
 // CVODE give their return flags the same values.
+//
+// Output times must not change the solution either. Both packages choose
+// their first step from the first time asked for (h0 ≤ 0.1 (t_out − t0)), so
+// the first output interval set h0 and the whole step sequence after it
+// (Fig. 10b's pair: 7 841 steps at an interval of 1e-6 s, 7 790 at 1e-5 s).
+// The first advance() therefore steps one step at a time (ONE_STEP mode)
+// toward the stop time, as a recorded run does, so h0 comes from t_stop.
 
 #include <span>
 #include <vector>
@@ -24,7 +31,8 @@ class SteppingIntegrator : public Integrator {
   // The return flags of ARKStepEvolve and CVode (equal in both packages).
   static constexpr int kSuccess = 0, kStopTime = 1, kRoot = 2, kTooMuchWork = -1;
 
-  SteppingIntegrator(const SolverParams& solver, IntegratorOptions options, double t0);
+  SteppingIntegrator(const SolverParams& solver, IntegratorOptions options, double t0,
+                     double t_stop);
 
   virtual double current_time() const = 0;  // end of the last step
   virtual long steps_taken() const = 0;
@@ -55,6 +63,7 @@ class SteppingIntegrator : public Integrator {
   void throw_if_out_of_steps();
   void record_step();
 
+  double t_stop_;       // the stop time: what ONE_STEP calls aim at
   double t_last_step_;  // end of the last step written to steps.csv
   // A root found beyond the output time by the step that crossed it.
   bool pending_root_ = false;

@@ -15,6 +15,7 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -58,6 +59,13 @@ struct FrictionSite {
   int ix = 0, iy = 0;
   std::int64_t node = 0;
   double v_star = 0.0;  // [m/s]
+};
+
+// A stage solve that did not converge (a step too large for the contacts'
+// stage equations): the integrator may retry with a smaller step. Any other
+// exception from a stage solve is a bug and stops the run with its message.
+struct StageNotConverged : std::runtime_error {
+  using std::runtime_error::runtime_error;
 };
 
 struct EnergyTerms {
@@ -191,6 +199,10 @@ class System {
   double g2() const { return g2_; }
   double spacing() const { return a_; }
   double drive_velocity() const { return v_; }
+  // The displacement one elastic spring k1 takes to balance a site's full
+  // contact force ε f0 (MODEL.md §6): the scale on which contact forces move
+  // the lattice [m].
+  double contact_displacement() const { return contact_force_scale_ / k1_over_m_; }
 
  private:
   void add_contact_accelerations(std::span<const double> y, std::span<double> ydot) const;
