@@ -10,7 +10,11 @@
 //                          bottom layer's Green's function (dirk, bdf: once per γ)
 //   lattice_solve          one FFT solve with M(γ) (two per implicit stage)
 //   implicit_stage/N/P     LatticeStageSolver::solve, a whole dirk or bdf stage, at
-//                          coverage P % (the contacts' coupled Newton grows with N_c)
+//                          coverage P % (the contacts' coupled Newton grows with N_c);
+//                          the same stage again and again, at one γ
+//   dirk_stage/N/P         a stage in situ: dirk (rtol 1e-6) advanced 20 µs from the
+//                          fixture's state; `rhs_per_stage` is the wall time per
+//                          implicit stage in units of one rhs, timed in the same run
 // on 15×15×10, 30×30×10 and 60×60×10 lattices at coverage 0.5 (unless given),
 // in a state taken from a short integration from rest (contacts stuck and creeping).
 //     build/bench/stickslip_micro [--benchmark_filter=rhs]
@@ -18,6 +22,7 @@
 #include <sunlinsol/sunlinsol_klu.h>
 #include <sunmatrix/sunmatrix_sparse.h>
 
+#include <chrono>
 #include <map>
 #include <memory>
 
@@ -199,6 +204,42 @@ void BM_implicit_stage(benchmark::State& state) {
   report_nodes(state, *f.system);
 }
 
+void BM_dirk_stage(benchmark::State& state) {
+  auto& f = fixture(static_cast<int>(state.range(0)), static_cast<double>(state.range(1)) / 100);
+  SolverParams solver;
+  solver.method = Method::dirk;
+  constexpr double kInterval = 20e-6;
+  // One rhs, timed here so that the ratio comes from one run.
+  constexpr int kRhs = 200;
+  const auto start = std::chrono::steady_clock::now();
+  for (int k = 0; k < kRhs; ++k) {
+    f.system->rhs(0.0, f.y, f.ydot);
+    benchmark::DoNotOptimize(f.ydot.data());
+  }
+  const double rhs_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / kRhs;
+  long stages = 0, steps = 0, factorizations = 0;
+  double seconds = 0.0;
+  std::vector<double> y = f.y;
+  for (auto _ : state) {
+    y = f.y;
+    const auto begin = std::chrono::steady_clock::now();
+    const auto integrator = make_integrator(*f.system, solver, f.y, kInterval, {});
+    integrator->advance(kInterval, y);
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+    const SolverStats st = integrator->stats();
+    stages += st.rhs_implicit;  // one f evaluation per solved stage (and per step start)
+    steps += st.steps;
+    factorizations += st.jacobian_evaluations;
+  }
+  const auto runs = static_cast<double>(state.iterations());
+  state.counters["stages"] = static_cast<double>(stages) / runs;
+  state.counters["steps"] = static_cast<double>(steps) / runs;
+  state.counters["contact_lu"] = static_cast<double>(factorizations) / runs;
+  state.counters["rhs_per_stage"] = seconds / static_cast<double>(stages) / rhs_seconds;
+  state.counters["contacts"] = static_cast<double>(f.system->contacts().size());
+}
+
 BENCHMARK(BM_rhs)->Arg(15)->Arg(30)->Arg(60);
 BENCHMARK(BM_lattice_factorize)->Arg(15)->Arg(30)->Arg(60);
 BENCHMARK(BM_lattice_solve)->Arg(15)->Arg(30)->Arg(60);
@@ -209,6 +250,11 @@ BENCHMARK(BM_implicit_stage)
     ->Args({30, 50})
     ->Args({60, 4})
     ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_dirk_stage)
+    ->Args({15, 50})
+    ->Args({30, 50})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
 BENCHMARK(BM_rhs_explicit_threads)
     ->ArgsProduct({{15, 30, 60}, {1, 2}})
     ->UseRealTime()

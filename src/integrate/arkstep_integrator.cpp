@@ -244,6 +244,7 @@ SolverStats ArkStepIntegrator::stats() const {
     case StageSolve::exact_lattice:
       s.newton_iterations = stage_stats_.iterations;
       s.linear_setups = lattice_stages_->lattice().factorizations();
+      s.jacobian_evaluations = lattice_stages_->contact_factorizations();
       break;
     case StageSolve::newton_klu:
       ARKStepGetNumNonlinSolvIters(arkode_mem_.get(), &s.newton_iterations);

@@ -150,6 +150,7 @@ SolverStats CvodeIntegrator::stats() const {
   if (lattice_stages_) {
     s.newton_iterations = stage_stats_.iterations;
     s.linear_setups = lattice_stages_->lattice().factorizations();
+    s.jacobian_evaluations = lattice_stages_->contact_factorizations();
   } else {
     CVodeGetNumNonlinSolvIters(cvode_mem_.get(), &s.newton_iterations);
     CVodeGetNumLinSolvSetups(cvode_mem_.get(), &s.linear_setups);

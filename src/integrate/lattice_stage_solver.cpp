@@ -38,7 +38,8 @@ LatticeStageSolver::LatticeStageSolver(const System& system)
   const auto n = static_cast<Eigen::Index>(2 * sites_);
   coupling_.resize(n, n);
   jacobian_.resize(n, n);
-  for (auto* v : {&free_speed_, &beta_, &sigma_, &residual_, &trial_}) v->resize(n);
+  for (auto* v : {&free_speed_, &beta_, &sigma_, &residual_, &trial_, &step_}) v->resize(n);
+  jacobian_lu_ = Eigen::PartialPivLU<Eigen::MatrixXd>(n);
   stages_.resize(sites_);
   predicted_speed_.resize(sites_);
 }
@@ -91,11 +92,32 @@ long LatticeStageSolver::solve(double t, double gamma, std::span<const double> p
   return iterations;
 }
 
+// ∂F/∂β = I + H − H E at the β whose ∂Σ/∂β are in stages_, factorized.
+void LatticeStageSolver::factorize_jacobian() {
+  jacobian_ = coupling_;
+  for (std::size_t j = 0; j < sites_; ++j) {
+    const auto& e = stages_[j].ds_db;
+    const auto c0 = static_cast<Eigen::Index>(2 * j), c1 = c0 + 1;
+    jacobian_.col(c0).noalias() -= coupling_.col(c0) * e[0] + coupling_.col(c1) * e[2];
+    jacobian_.col(c1).noalias() -= coupling_.col(c0) * e[1] + coupling_.col(c1) * e[3];
+  }
+  jacobian_.diagonal().array() += 1.0;
+  jacobian_lu_.compute(jacobian_);
+  jacobian_gamma_ = gamma_;
+  jacobian_valid_ = true;
+  ++factorizations_;
+}
+
 long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
                                         std::span<const double> weights) {
   constexpr int kMaxIterations = 30;
   constexpr double kTolerance = 1e-6;  // of the integrator's error weights
   constexpr double kStagnated = 1e-3;  // accepted if no further progress is possible
+  // Rebuild an old Jacobian when γ moved by more than this fraction or an
+  // iteration cut the residual by less than this factor (measured:
+  // docs/PERFORMANCE.md, "The dirk stage").
+  constexpr double kGammaDrift = 0.2;
+  constexpr double kSlowContraction = 0.1;
   const double gamma_self = gamma_ * self_green_;
   for (std::size_t i = 0; i < sites_; ++i)
     predicted_speed_[i] = std::hypot(predictor[site_w_[i]], predictor[site_w_[i] + 1]);
@@ -124,33 +146,41 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
   }
   beta_ = free_speed_ + coupling_ * trial_;
   double norm = evaluate(beta_);
+  // Modified Newton: the factorized Jacobian is kept across iterations,
+  // stages and steps while γ stays within kGammaDrift of the γ it was built
+  // for and each iteration still cuts the residual by kSlowContraction;
+  // otherwise it is rebuilt at the current β. `fresh`: built at this β.
+  bool fresh = false;
   for (int it = 0; it < kMaxIterations; ++it) {
     if (!std::isfinite(norm)) break;
     if (norm <= kTolerance) return it;
-    // J = I + H − H E.
-    jacobian_ = coupling_;
-    for (std::size_t j = 0; j < sites_; ++j) {
-      const auto& e = stages_[j].ds_db;
-      const Eigen::VectorXd h0 = coupling_.col(2 * j), h1 = coupling_.col(2 * j + 1);
-      jacobian_.col(2 * j) -= h0 * e[0] + h1 * e[2];
-      jacobian_.col(2 * j + 1) -= h0 * e[1] + h1 * e[3];
+    if (!jacobian_valid_ || std::abs(gamma_ / jacobian_gamma_ - 1.0) > kGammaDrift) {
+      factorize_jacobian();
+      fresh = true;
     }
-    jacobian_.diagonal().array() += 1.0;
-    const Eigen::VectorXd step = jacobian_.partialPivLu().solve(-residual_);
+    step_ = jacobian_lu_.solve(-residual_);
     // Backtrack while the residual grows (the velocity-weakening branch).
     double fraction = 1.0, trial_norm = 0.0;
     for (;;) {
-      trial_ = beta_ + fraction * step;
+      trial_ = beta_ + fraction * step_;
       trial_norm = evaluate(trial_);
       if (trial_norm < norm || fraction < 1.0 / 64) break;
       fraction *= 0.5;
     }
-    if (!(trial_norm < norm) && norm <= kStagnated) {
-      evaluate(beta_);  // back to the better point: rounding, not divergence
-      return it + 1;
+    if (!(trial_norm < norm)) {
+      evaluate(beta_);  // back to the better point
+      if (!fresh) {     // an old Jacobian: rebuild it here and try again
+        jacobian_valid_ = false;
+        continue;
+      }
+      if (norm <= kStagnated) return it + 1;  // rounding, not divergence
+      break;
     }
+    // A slow contraction with an old Jacobian: rebuild it at the new point.
+    if (trial_norm > kSlowContraction * norm && !fresh) jacobian_valid_ = false;
     beta_ = trial_;
     norm = trial_norm;
+    fresh = false;
   }
   throw StageNotConverged("the contacts' coupled stage equations did not converge");
 }

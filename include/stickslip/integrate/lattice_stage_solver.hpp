@@ -35,10 +35,13 @@ class LatticeStageSolver {
              std::span<const double> weights, std::span<double> z);
 
   const LatticeSolver& lattice() const { return lattice_; }
+  // Dense LU factorizations of the contacts' Newton matrix so far.
+  long contact_factorizations() const { return factorizations_; }
 
  private:
   void set_gamma(double gamma);
   long solve_contacts(std::span<const double> predictor, std::span<const double> weights);
+  void factorize_jacobian();
 
   const System& system_;
   LatticeSolver lattice_;
@@ -53,8 +56,13 @@ class LatticeStageSolver {
   Eigen::MatrixXd coupling_;
   // Scratch.
   std::vector<double> zero_, acc_, correction_;
-  Eigen::VectorXd free_speed_, beta_, sigma_, residual_, trial_;
+  Eigen::VectorXd free_speed_, beta_, sigma_, residual_, trial_, step_;
+  // The contacts' Newton matrix, factorized, and the γ it was built for.
   Eigen::MatrixXd jacobian_;
+  Eigen::PartialPivLU<Eigen::MatrixXd> jacobian_lu_;
+  double jacobian_gamma_ = 0.0;
+  bool jacobian_valid_ = false;
+  long factorizations_ = 0;
   std::vector<ContactStage> stages_;
   std::vector<double> predicted_speed_;
 };

@@ -13,8 +13,9 @@ struct SolverStats {
   long rhs_implicit = 0;       // evaluations of the implicit part (imex, dirk, bdf)
   long newton_iterations = 0;  // imex: scalar iterations of the per-contact stage solves
   long convergence_failures = 0;
-  long linear_setups = 0;
-  long jacobian_evaluations = 0;
+  long linear_setups = 0;  // dirk, bdf (fft): lattice factorizations M(γ)
+  long jacobian_evaluations =
+      0;  // dirk, bdf (fft): LU factorizations of the contacts' Newton matrix
   long error_test_failures = 0;
   long root_evaluations = 0;
   double last_step = 0.0;
