@@ -42,6 +42,11 @@ LatticeStageSolver::LatticeStageSolver(const System& system)
   jacobian_lu_ = Eigen::PartialPivLU<Eigen::MatrixXd>(n);
   stages_.resize(sites_);
   predicted_speed_.resize(sites_);
+  // Eigen's LU runs its block updates on every OpenMP thread by default; on
+  // these ≤ 900² matrices the threads mostly spin-waited (half the run's
+  // time on theta05 in a profile, with a sweep's other point on the other
+  // core), and a run's threads are [solver] threads, for the lattice loops.
+  Eigen::setNbThreads(1);
 }
 
 void LatticeStageSolver::set_gamma(double gamma) {
