@@ -115,14 +115,16 @@ void LatticeStageSolver::factorize_jacobian() {
 
 long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
                                         std::span<const double> weights) {
-  constexpr int kMaxIterations = 30;
+  constexpr int kMaxIterations = 60;
   constexpr double kTolerance = 1e-6;  // of the integrator's error weights
   constexpr double kStagnated = 1e-3;  // accepted if no further progress is possible
-  // Rebuild an old Jacobian when γ moved by more than this fraction or an
-  // iteration cut the residual by less than this factor (measured:
-  // docs/PERFORMANCE.md, "The dirk stage").
+  // Rebuild an old Jacobian when γ moved by more than this fraction, or when
+  // at the contraction an old one gives, the iterations still needed would
+  // cost more than a factorization: an LU of the 2 N_c matrix costs about as
+  // much as 2 N_c / 20 iterations (at least 5; measured on 15×15×10 and
+  // 30×30×10: docs/PERFORMANCE.md).
   constexpr double kGammaDrift = 0.2;
-  constexpr double kSlowContraction = 0.1;
+  const double lu_in_iterations = std::max(5.0, static_cast<double>(2 * sites_) / 20.0);
   const double gamma_self = gamma_ * self_green_;
   for (std::size_t i = 0; i < sites_; ++i)
     predicted_speed_[i] = std::hypot(predictor[site_w_[i]], predictor[site_w_[i] + 1]);
@@ -153,7 +155,7 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
   double norm = evaluate(beta_);
   // Modified Newton: the factorized Jacobian is kept across iterations,
   // stages and steps while γ stays within kGammaDrift of the γ it was built
-  // for and each iteration still cuts the residual by kSlowContraction;
+  // for and its contraction finishes the solve for less than a rebuild;
   // otherwise it is rebuilt at the current β. `fresh`: built at this β.
   bool fresh = false;
   for (int it = 0; it < kMaxIterations; ++it) {
@@ -173,16 +175,27 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
       fraction *= 0.5;
     }
     if (!(trial_norm < norm)) {
-      evaluate(beta_);  // back to the better point
-      if (!fresh) {     // an old Jacobian: rebuild it here and try again
+      if (!fresh) {  // an old Jacobian: rebuild it at the better point, try again
+        evaluate(beta_);
         jacobian_valid_ = false;
         continue;
       }
-      if (norm <= kStagnated) return it + 1;  // rounding, not divergence
-      break;
+      if (norm <= kStagnated) {  // rounding, not divergence
+        evaluate(beta_);
+        return it + 1;
+      }
+      // A fresh Jacobian and still no decrease: take the damped step anyway
+      // (as before the Jacobian was kept), the next iteration rebuilds at it.
+      jacobian_valid_ = false;
     }
-    // A slow contraction with an old Jacobian: rebuild it at the new point.
-    if (trial_norm > kSlowContraction * norm && !fresh) jacobian_valid_ = false;
+    // A slow contraction with an old Jacobian: rebuild it at the new point
+    // if finishing at this rate would cost more than the rebuild.
+    if (!fresh && trial_norm > kTolerance) {
+      const double rate = trial_norm / norm;
+      const double remaining = std::log(kTolerance / trial_norm) / std::log(rate);
+      if (remaining > lu_in_iterations || it + 1 + remaining > kMaxIterations)
+        jacobian_valid_ = false;
+    }
     beta_ = trial_;
     norm = trial_norm;
     fresh = false;
