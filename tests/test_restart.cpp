@@ -50,6 +50,7 @@ t_end = 1.5e-3
 average_from = 5e-4
 checkpoint_every = 2e-4
 [solver]
+method = "imex"  # seconds, not the fraction of one dirk takes: a signal lands mid-run
 rtol = 1e-7
 atol_displacement = 1e-13
 atol_velocity = 1e-8

@@ -69,7 +69,7 @@ double SteppingIntegrator::advance_stepwise(double t_out, std::span<double> y) {
     interpolate(t_out, y_.get());
     return finish(t_out, y);
   }
-  long since_poll = 0;
+  long polled_at = steps_taken();
   for (;;) {
     double t = 0.0;
     const double t_now = current_time();
@@ -83,18 +83,18 @@ double SteppingIntegrator::advance_stepwise(double t_out, std::span<double> y) {
       return finish(t, y);
     }
     throw_if_out_of_steps();
-    if (++since_poll >= method_setup(solver_).poll_steps) {
-      since_poll = 0;
-      if (options_.poll && options_.poll()) {
-        interpolate(t_now, y_.get());  // the last step's end
-        return finish(t_now, y);
-      }
-    }
     // In ONE_STEP mode the target only sets the first step's size.
     const int flag = evolve(t_stop_, &t, true);
     if (flag < 0) throw_failure(flag, t);
     record_step();
-    if (flag != kRoot) continue;
+    if (flag != kRoot) {
+      // Every poll_steps steps, as normal mode: y_ is this step's end, t.
+      if (t < t_out && steps_taken() - polled_at >= method_setup(solver_).poll_steps) {
+        polled_at = steps_taken();
+        if (options_.poll && options_.poll()) return finish(t, y);
+      }
+      continue;
+    }
     root_info(roots_.data());
     if (t <= t_out) return finish(t, y);
     // The root lies beyond t_out: report t_out first (it is inside this step).

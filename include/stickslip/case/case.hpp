@@ -88,7 +88,7 @@ struct SolverParams {
   // that rtol alone controls the error.
   double atol_displacement = 0.0;  // [m]
   double atol_velocity = 0.0;      // [m/s]
-  long max_steps = 50'000'000;       // over the whole run
+  long max_steps = 50'000'000;     // over the whole run
   // Largest accepted |energy-audit residual| at t_end; 0: 100 × rtol, or
   // 1e-4 for a fixed step. Beyond it the run fails and reports no μ.
   double audit_bound = 0.0;
