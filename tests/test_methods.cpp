@@ -281,7 +281,7 @@ TEST_CASE("steps.csv lists every accepted step with its size and error", "[metho
     std::ifstream in(options.out_dir / "steps.csv");
     std::string line;
     std::getline(in, line);
-    CHECK(line == "t,h,error");
+    CHECK(line == "t,h,error,h_lambda");
     double t_prev = 0.0;
     long rows = 0;
     while (std::getline(in, line)) {

@@ -46,8 +46,7 @@ ARKODE_DIRKTableID dirk_table(int order) {
 ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& solver,
                                      std::span<const double> y0, double t0, double t_stop,
                                      IntegratorOptions options)
-    : SteppingIntegrator(solver, std::move(options), t0, t_stop),
-      system_(system),
+    : SteppingIntegrator(system, solver, std::move(options), t0, t_stop),
       setup_(method_setup(solver)) {
   y_ = make_serial_vector(y0, ctx_);
   // Which parts ARKStep sees: explicit methods all of f explicitly, imex the

@@ -15,8 +15,7 @@ namespace stickslip {
 CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solver,
                                  std::span<const double> y0, double t0, double t_stop,
                                  IntegratorOptions options)
-    : SteppingIntegrator(solver, std::move(options), t0, t_stop),
-      system_(system),
+    : SteppingIntegrator(system, solver, std::move(options), t0, t_stop),
       setup_(method_setup(solver)),
       // BDF of order ≥ 3 is not A-stable and the lattice modes are lightly
       // damped: at loose tolerance it produced spurious slips (MODEL.md §12).

@@ -7,9 +7,13 @@
 
 namespace stickslip {
 
-SteppingIntegrator::SteppingIntegrator(const SolverParams& solver, IntegratorOptions options,
-                                       double t0, double t_stop)
-    : solver_(solver), options_(std::move(options)), t_stop_(t_stop), t_last_step_(t0) {}
+SteppingIntegrator::SteppingIntegrator(const System& system, const SolverParams& solver,
+                                       IntegratorOptions options, double t0, double t_stop)
+    : system_(system),
+      solver_(solver),
+      options_(std::move(options)),
+      t_stop_(t_stop),
+      t_last_step_(t0) {}
 
 void SteppingIntegrator::init_stepping(std::size_t watched_contacts) {
   roots_.assign(watched_contacts, 0);
@@ -114,7 +118,9 @@ void SteppingIntegrator::record_step() {
   // After a root or an output inside a step, ONE_STEP mode first hands back
   // that same step: not a new one.
   if (t <= t_last_step_) return;
-  const StepRecord r{t, t - t_last_step_, local_error_norm()};
+  const double h = t - t_last_step_;
+  // y_ holds the step's end (ONE_STEP mode).
+  const StepRecord r{t, h, local_error_norm(), h * system_.weakening_rate(as_span(y_.get()))};
   t_last_step_ = t;
   options_.on_step(r);
 }

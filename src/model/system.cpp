@@ -376,6 +376,19 @@ long System::solve_implicit_stage(double gamma, std::span<const double> predicto
   return iterations;
 }
 
+double System::weakening_rate(std::span<const double> y) const {
+  double rate = 0.0;
+  for (std::size_t j = 0; j < sites_.size(); ++j) {
+    const auto s = site_velocity(j, y);
+    const double v_star = sites_[j].v_star;
+    // d|a_c|/d|s| = S φ'(|s|/v*)/v* + η_c (MODEL.md §6), negative past the peak.
+    const double slope =
+        contact_force_scale_ * law_.dphi(std::hypot(s[0], s[1]) / v_star) / v_star + eta_c_;
+    rate = std::max(rate, -slope);
+  }
+  return rate;
+}
+
 double System::friction_force(double t, std::span<const double> y) const {
   double sum = 0.0;
   const double anchor = v_ * t;

@@ -228,15 +228,18 @@ class EventsRecorder final : public Recorder {
   std::vector<double> pair_t_, pair_va_, pair_vb_;
 };
 
-// steps: every accepted step's size and error estimate.
+// steps: every accepted step's size, error estimate and h λ.
 class StepsRecorder final : public Recorder {
  public:
   static constexpr const char* kTable = "steps";
   explicit StepsRecorder(const RecorderSetup& s)
-      : table_(open_table(s, {kTable, {time_column(), real("h", "s"), real("error", "1")}})) {}
+      : table_(open_table(
+            s,
+            {kTable, {time_column(), real("h", "s"), real("error", "1"), real("h_lambda", "1")}})) {
+  }
   bool wants_steps() const override { return true; }
   void step(const StepRecord& r) override {
-    const double row[3] = {r.t, r.h, r.error};
+    const double row[4] = {r.t, r.h, r.error, r.h_lambda};
     table_->append(row);
   }
   void flush() override { table_->flush(); }

@@ -36,7 +36,6 @@ class ArkStepIntegrator final : public SteppingIntegrator {
   double local_error_norm() override;
   [[noreturn]] void throw_failure(int flag, double t) override;
 
-  const System& system_;
   MethodSetup setup_;
   NVectorPtr atol_, scratch_error_, scratch_weights_;
   StageStats stage_stats_;

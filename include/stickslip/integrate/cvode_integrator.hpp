@@ -37,7 +37,6 @@ class CvodeIntegrator final : public SteppingIntegrator {
   double local_error_norm() override;
   [[noreturn]] void throw_failure(int flag, double t) override;
 
-  const System& system_;
   MethodSetup setup_;
   int max_order_;
   StageStats stage_stats_;

@@ -16,11 +16,13 @@
 
 namespace stickslip {
 
-// One accepted step: where it ended, its size, and the weighted RMS norm of
+// One accepted step: where it ended, its size, the weighted RMS norm of
 // its local error estimate (≤ 1 for an accepted adaptive step; NaN where the
-// method has no estimate).
+// method has no estimate), and h times the fastest growth rate of a contact
+// past its peak force.
 struct StepRecord {
   double t = 0.0, h = 0.0, error = 0.0;
+  double h_lambda = 0.0;  // h × System::weakening_rate at the step's end
 };
 
 struct IntegratorOptions {

@@ -31,8 +31,8 @@ class SteppingIntegrator : public Integrator {
   // The return flags of ARKStepEvolve and CVode (equal in both packages).
   static constexpr int kSuccess = 0, kStopTime = 1, kRoot = 2, kTooMuchWork = -1;
 
-  SteppingIntegrator(const SolverParams& solver, IntegratorOptions options, double t0,
-                     double t_stop);
+  SteppingIntegrator(const System& system, const SolverParams& solver, IntegratorOptions options,
+                     double t0, double t_stop);
 
   virtual double current_time() const = 0;  // end of the last step
   virtual long steps_taken() const = 0;
@@ -50,6 +50,7 @@ class SteppingIntegrator : public Integrator {
   // Call once y_ exists (it sizes the scratch vectors).
   void init_stepping(std::size_t watched_contacts);
 
+  const System& system_;
   SolverParams solver_;
   IntegratorOptions options_;
   SunContext ctx_;  // first member of the adapters' hierarchy: destroyed last

@@ -173,6 +173,11 @@ class System {
   void stick_slip_roots(std::span<const double> y, std::span<const int> watched,
                         std::span<double> g) const;
   bool slipping(std::size_t i, std::span<const double> y) const;
+  // The fastest growth rate of a site on the weakening branch, λ = −d|a_c|/d|s|
+  // where the contact force falls with speed (past v*), 0 if none is [1/s].
+  // A step with h λ ≫ 1 lets an L-stable method damp a slip's growth, and the
+  // error estimate, built from two damped answers, cannot see it (steps.csv).
+  double weakening_rate(std::span<const double> y) const;
   // |F_contact| of contact i, the sum over its sites [N].
   double contact_force(std::size_t i, std::span<const double> y) const;
 
