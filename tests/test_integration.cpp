@@ -10,23 +10,12 @@
 #include "stickslip/integrate/integrator.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/run/run.hpp"
+#include "test_cases.hpp"
 
 using namespace stickslip;
 
-namespace {
-
-Case two_contact_case() {
-  Case c;
-  c.lattice = {6, 6, 4, 1e-4};
-  c.interface.contacts = {{1, 2, 4.75e-4, 0}, {4, 2, 2.09e-3, 0}};
-  return c;
-}
-
-System make_system(const Case& c) {
-  return System(c, place_contacts(c.lattice, c.interface));
-}
-
-}  // namespace
+using test::make_system;
+using test::two_contact_case;
 
 TEST_CASE("implicit stage equation is solved to rounding, from rest to fast slip", "[stage]") {
   const Case c = two_contact_case();

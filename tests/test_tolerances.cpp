@@ -4,22 +4,13 @@
 #include <cmath>
 
 #include "stickslip/integrate/tolerances.hpp"
-#include "stickslip/model/contacts.hpp"
+#include "test_cases.hpp"
 
 using namespace stickslip;
 
 namespace {
 
-Case pair_case() {
-  Case c;
-  c.lattice = {6, 6, 4, 1e-4};
-  c.interface.contacts = {{1, 2, 4.75e-4, 0}, {4, 2, 2.09e-3, 0}};
-  return c;
-}
-
-System make_system(const Case& c) {
-  return System(c, place_contacts(c.lattice, c.interface));
-}
+using test::make_system;
 
 // k1 = m G1 / a² with m = ρ a³ and G1 = E / (2 (1 + ν) ρ) (MODEL.md §2).
 double spring(const Case& c) {
@@ -35,7 +26,7 @@ double site_force(const Case& c) {  // ε f0 = ε τ_f a² (MODEL.md §6)
 
 TEST_CASE("the tolerance scales come from the drive, the contacts and the springs",
           "[tolerances]") {
-  Case c = pair_case();
+  Case c = test::two_contact_case();
   const ToleranceScales s = tolerance_scales(make_system(c));
   // The slower contact (4.75e-4) is slower than the drive (1e-3).
   CHECK(s.velocity == Approx(0.1 * 4.75e-4).epsilon(1e-12));
@@ -55,7 +46,7 @@ TEST_CASE("the tolerance scales come from the drive, the contacts and the spring
 }
 
 TEST_CASE("every absolute tolerance is proportional to rtol unless given", "[tolerances]") {
-  Case c = pair_case();
+  Case c = test::two_contact_case();
   const System system = make_system(c);
   const std::int64_t n = system.num_nodes();
   SolverParams loose = c.solver, tight = c.solver;

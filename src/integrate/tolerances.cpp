@@ -8,8 +8,8 @@ namespace stickslip {
 namespace {
 
 // Fractions of the physical scales at which a component stops mattering.
-// Measured (docs/PERFORMANCE.md, "The tolerance rule"): with these, the slip
-// times of the Fig. 10b pair converge in proportion to rtol for every method.
+// Measured (docs/PERFORMANCE.md, "Tolerances that follow rtol"): with these,
+// the slip times of the pairs converge in proportion to rtol for every method.
 constexpr double kVelocityFraction = 0.1;
 constexpr double kDisplacementFraction = 0.1;
 // A lattice with neither drive nor contacts has no speed of its own; this is

@@ -380,11 +380,12 @@ double System::weakening_rate(std::span<const double> y) const {
   double rate = 0.0;
   for (std::size_t j = 0; j < sites_.size(); ++j) {
     const auto s = site_velocity(j, y);
-    const double v_star = sites_[j].v_star;
-    // d|a_c|/d|s| = S φ'(|s|/v*)/v* + η_c (MODEL.md §6), negative past the peak.
-    const double slope =
-        contact_force_scale_ * law_.dphi(std::hypot(s[0], s[1]) / v_star) / v_star + eta_c_;
-    rate = std::max(rate, -slope);
+    const double speed = std::hypot(s[0], s[1]);
+    if (!(speed > 0.0)) continue;  // at rest the force rises with speed
+    // The Jacobian block along ŝ: ∂a/∂|s|, positive past the peak.
+    const auto b = site_block(j, y);
+    const double nx = s[0] / speed, ny = s[1] / speed;
+    rate = std::max(rate, nx * (b[0] * nx + b[1] * ny) + ny * (b[2] * nx + b[3] * ny));
   }
   return rate;
 }
