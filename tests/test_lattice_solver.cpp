@@ -182,6 +182,10 @@ TEST_CASE(
                 scale = std::max(scale, std::abs(direct));
                 // Symmetry of M⁻¹: g_ab(Δ) = g_ba(−Δ).
                 CHECK(solver.green(sx - ix, sy - iy, b, a) == Approx(green).margin(1e-13 * scale));
+                // The lookup by a wrapped offset is the same entry.
+                const int dx = (ix - sx + shape.nx) % shape.nx,
+                          dy = (iy - sy + shape.ny) % shape.ny;
+                CHECK(solver.green_wrapped(dx + std::int64_t{shape.nx} * dy, a, b) == green);
               }
         }
       INFO(shape.nx << "x" << shape.ny << "x" << shape.nz << ", gamma " << gamma);

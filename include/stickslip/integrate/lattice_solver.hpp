@@ -50,6 +50,11 @@ class LatticeSolver {
   // and component b of bottom node (ix, iy), for any (ix, iy); a, b ∈ {0, 1}
   // (x, y). Offsets wrap periodically.
   double green(int dx, int dy, int a, int b) const;
+  // The same for an offset already wrapped into [0, Nx) × [0, Ny), given as
+  // dx + Nx dy: no integer division, for the N_c² lookups at every γ.
+  double green_wrapped(std::int64_t offset, int a, int b) const {
+    return green_[static_cast<std::size_t>((2 * a + b) * std::int64_t{nx_} * ny_ + offset)];
+  }
 
   long factorizations() const { return factorizations_; }
   long solves() const { return solves_; }

@@ -48,6 +48,8 @@ class LatticeStageSolver {
   std::int64_t nodes_;
   std::size_t sites_;
   std::vector<std::int64_t> site_w_;  // state index of each friction site's w^x
+  // Site i's offset from site j, wrapped, as LatticeSolver::green_wrapped takes it.
+  std::vector<std::int64_t> site_offset_;  // [i][j]
   // For the γ last seen: the bottom layer's self Green's function ḡ (the
   // mean of its xx and yy entries) and the coupling H = (G − ḡ I)/ḡ between
   // the contacts' velocities (2 N_c × 2 N_c).
