@@ -651,6 +651,39 @@ TEST_CASE("the output interval does not change the solution", "[methods][interva
   }
 }
 
+TEST_CASE("a loose rtol does not step over a slip: no stage leaves gamma lambda above 1",
+          "[methods][slip]") {
+  // dirk at rtol 1e-2 stepped over this pair's slips: 29 steps for 1.5 ms,
+  // h λ up to 6 000 at a step's end, μ 11 % off. Its error estimate, built
+  // from two answers an L-stable step both damped, cannot see a slip's
+  // growth; LatticeStageSolver refuses a stage that leaves γ λ > 1. With
+  // γ = h/4 (ESDIRK436L2SA), every step then ends at h λ ≤ 4.
+  Case c = two_contacts();
+  c.run.t_end = 1.5e-3;
+  c.run.average_from = 5e-4;
+  c.solver.method = Method::dirk;
+  TempDir dir("stickslip_test_loose_rtol");
+  c.solver.rtol = 1e-7;
+  const Summary reference = run_case(c, {dir.path / "reference", false, true});
+  c.solver.rtol = 1e-2;
+  c.solver.audit_bound = 1e9;  // judged by its μ and its steps below
+  c.output.steps = true;
+  RunOptions options{dir.path / "loose", false, true};
+  const Summary loose = run_case(c, options);
+  CHECK(std::abs(loose.mu - reference.mu) < 1e-3 * reference.mu);  // measured: 1.2e-4
+  std::ifstream in(options.out_dir / "steps.csv");
+  std::string line;
+  std::getline(in, line);
+  double largest = 0.0;
+  while (std::getline(in, line)) {
+    double t, h, e, h_lambda;
+    REQUIRE(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf", &t, &h, &e, &h_lambda) == 4);
+    largest = std::max(largest, h_lambda);
+  }
+  CHECK(largest > 1.0);  // the steps were as long as the bound allows
+  CHECK(largest <= 4.0 * (1.0 + 1e-9));
+}
+
 TEST_CASE("slip times converge with rtol alone, for every adaptive method",
           "[slow][methods][convergence]") {
   // Only rtol changes; the absolute tolerances follow it (tolerances.hpp).

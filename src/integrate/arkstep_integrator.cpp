@@ -103,6 +103,7 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
       // error-test failures (each cuts h by at most 10×) allow.
       check(ARKStepSetMaxErrTestFails(arkode_mem_.get(), kMaxErrorTestFailures),
             "ARKStepSetMaxErrTestFails");
+      check(ARKStepSetMaxConvFails(arkode_mem_.get(), kMaxStageFailures), "ARKStepSetMaxConvFails");
       lattice_stages_ = std::make_unique<LatticeStageSolver>(system);
       stage_solver_ = make_exact_stage_solver(
           ctx_, StagePackage::arkstep,

@@ -36,6 +36,7 @@ CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solve
   if (setup_.stages == StageSolve::exact_lattice) {
     check(CVodeSetMaxErrTestFails(cvode_mem_.get(), kMaxErrorTestFailures),
           "CVodeSetMaxErrTestFails");
+    check(CVodeSetMaxConvFails(cvode_mem_.get(), kMaxStageFailures), "CVodeSetMaxConvFails");
     lattice_stages_ = std::make_unique<LatticeStageSolver>(system);
     stage_solver_ = make_exact_stage_solver(
         ctx_, StagePackage::cvode,

@@ -58,6 +58,11 @@ struct MethodSetup {
 // Error-test failures allowed in one step of an exactly solved implicit method
 // (SUNDIALS' default: 7).
 inline constexpr int kMaxErrorTestFailures = 20;
+// Refused stage solves allowed in one step, likewise (SUNDIALS' default: 10,
+// each cutting h by 4): a stage that leaves a contact slipping faster than
+// the step resolves is refused (LatticeStageSolver), and from a creep step of
+// 5e-4 s the step may have to fall to 1e-10 s at a slip's onset.
+inline constexpr int kMaxStageFailures = 20;
 
 // For a resolved method (not "auto") and its linear_solver.
 MethodSetup method_setup(const SolverParams& solver);

@@ -22,7 +22,12 @@ namespace stickslip {
 
 class LatticeStageSolver {
  public:
-  explicit LatticeStageSolver(const System& system);
+  // A stage that leaves a contact past its peak force with γ λ above this
+  // (λ: the growth rate of its slip) is refused with StageNotConverged: the
+  // integrator then retries a shorter step (why: solve() in the .cpp).
+  static constexpr double kMaxGammaLambda = 1.0;
+
+  explicit LatticeStageSolver(const System& system, double max_gamma_lambda = kMaxGammaLambda);
 
   // z holds b on entry and the solution on return. `predictor` (the
   // integrator's guess for z) picks among several roots on the
@@ -44,6 +49,7 @@ class LatticeStageSolver {
   void factorize_jacobian();
 
   const System& system_;
+  double max_gamma_lambda_;
   LatticeSolver lattice_;
   std::int64_t nodes_;
   std::size_t sites_;
