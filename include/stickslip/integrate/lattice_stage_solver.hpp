@@ -65,10 +65,9 @@ class LatticeStageSolver {
   // Scratch.
   std::vector<double> zero_, acc_, correction_;
   Eigen::VectorXd free_speed_, beta_, sigma_, residual_, trial_, step_;
-  // The contacts' Newton matrix, factorized, and the γ it was built for.
+  // The contacts' Newton matrix, factorized (for a γ and β since passed).
   Eigen::MatrixXd jacobian_;
   Eigen::PartialPivLU<Eigen::MatrixXd> jacobian_lu_;
-  double jacobian_gamma_ = 0.0;
   bool jacobian_valid_ = false;
   long factorizations_ = 0;
   std::vector<ContactStage> stages_;
