@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "stickslip/case/reader.hpp"
+#include "temp_dir.hpp"
 
 using namespace stickslip;
 using Catch::Contains;
@@ -393,8 +394,8 @@ traces = [1]
 
 TEST_CASE("read_case reads a file and resolves output.dir next to it", "[case]") {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / "stickslip_test_case_reader";
-  fs::create_directories(dir);
+  const test::TempDir tmp("stickslip_test_case_reader");
+  const fs::path& dir = tmp.path;
   const fs::path file = dir / "run.toml";
   std::ofstream(file) << "[drive]\nvelocity = 5e-4\n[output]\ndir = \"results\"\n";
   const Case c = read_case(file, {"drive.velocity=6e-4"});

@@ -2,10 +2,8 @@
 // the differences it reports, the tolerance rule, bad input, and the command
 // line's exit codes.
 #include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
-#include <atomic>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdio>
@@ -20,6 +18,7 @@
 
 #include "stickslip/analysis/compare.hpp"
 #include "stickslip/output/summary.hpp"
+#include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace stickslip;
@@ -45,23 +44,7 @@ std::string fmt(double x) {
   return buf;
 }
 
-// A temporary directory per test, removed afterwards.
-struct TempDir {
-  fs::path root;
-  TempDir() {
-    static std::atomic<int> counter{0};
-    root = fs::temp_directory_path() /
-           ("stickslip_compare_" + std::to_string(getpid()) + "_" + std::to_string(counter++));
-    fs::remove_all(root);
-    fs::create_directories(root);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(root, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-};
+using test::TempDir;
 
 // A run's summary.json with the fields compare reads; the rest as a run that
 // did nothing would have them.
@@ -137,10 +120,10 @@ const EventDiff& group(const CompareResult& r, int contact, EventKind kind) {
 
 TEST_CASE("compare: identical runs differ by nothing and pass", "[compare]") {
   TempDir tmp;
-  write_run(tmp.root / "a", 0.4321, base_events());
-  fs::copy(tmp.root / "a", tmp.root / "b");
+  write_run(tmp.path / "a", 0.4321, base_events());
+  fs::copy(tmp.path / "a", tmp.path / "b");
 
-  const CompareResult r = compare_runs(tmp.root / "a", tmp.root / "b", 1e-2);
+  const CompareResult r = compare_runs(tmp.path / "a", tmp.path / "b", 1e-2);
   CHECK(r.mu_a == 0.4321);
   CHECK(r.mu_b == 0.4321);
   CHECK(r.mu_rel_diff == 0.0);
@@ -172,10 +155,10 @@ TEST_CASE("compare: identical runs differ by nothing and pass", "[compare]") {
 
   // The command: exit 0, a report, and the JSON in B by default.
   std::ostringstream out, err;
-  CHECK(compare_command(tmp.root / "a", tmp.root / "b", 1e-2, {}, out, err) == 0);
+  CHECK(compare_command(tmp.path / "a", tmp.path / "b", 1e-2, {}, out, err) == 0);
   CHECK(err.str().empty());
   CHECK_THAT(out.str(), Contains("PASS"));
-  const auto j = nlohmann::json::parse(slurp(tmp.root / "b" / "compare.json"));
+  const auto j = nlohmann::json::parse(slurp(tmp.path / "b" / "compare.json"));
   CHECK(j["pass"] == true);
   CHECK(j["mu"]["rel_diff"] == 0.0);
   CHECK(j["traces"]["columns"].size() == 2);
@@ -185,36 +168,36 @@ TEST_CASE("compare: identical runs differ by nothing and pass", "[compare]") {
 
 TEST_CASE("compare: mu 5 % apart fails at rtol 1e-2 and passes at 0.1", "[compare]") {
   TempDir tmp;
-  write_run(tmp.root / "a", 0.4, base_events());
-  write_run(tmp.root / "b", 0.42, base_events());
+  write_run(tmp.path / "a", 0.4, base_events());
+  write_run(tmp.path / "b", 0.42, base_events());
 
-  const CompareResult tight = compare_runs(tmp.root / "a", tmp.root / "b", 1e-2);
+  const CompareResult tight = compare_runs(tmp.path / "a", tmp.path / "b", 1e-2);
   CHECK(tight.mu_rel_diff == Approx(0.05).epsilon(1e-12));
   CHECK_FALSE(tight.pass());
   REQUIRE(tight.failures.size() == 1);
   CHECK_THAT(tight.failures[0], StartsWith("mu:"));
 
-  const CompareResult loose = compare_runs(tmp.root / "a", tmp.root / "b", 0.1);
+  const CompareResult loose = compare_runs(tmp.path / "a", tmp.path / "b", 0.1);
   CHECK(loose.mu_rel_diff == Approx(0.05).epsilon(1e-12));
   CHECK(loose.pass());
 
   std::ostringstream out, err;
-  const fs::path report = tmp.root / "report.json";
-  CHECK(compare_command(tmp.root / "a", tmp.root / "b", 1e-2, report, out, err) == 1);
+  const fs::path report = tmp.path / "report.json";
+  CHECK(compare_command(tmp.path / "a", tmp.path / "b", 1e-2, report, out, err) == 1);
   CHECK_THAT(out.str(), Contains("FAIL"));
   CHECK(nlohmann::json::parse(slurp(report))["pass"] == false);
-  CHECK_FALSE(fs::exists(tmp.root / "b" / "compare.json"));  // --out was given
-  CHECK(compare_command(tmp.root / "a", tmp.root / "b", 0.1, report, out, err) == 0);
+  CHECK_FALSE(fs::exists(tmp.path / "b" / "compare.json"));  // --out was given
+  CHECK(compare_command(tmp.path / "a", tmp.path / "b", 0.1, report, out, err) == 0);
 }
 
 TEST_CASE("compare: a shifted event gives its time difference", "[compare]") {
   TempDir tmp;
-  write_run(tmp.root / "a", 0.4, base_events());
+  write_run(tmp.path / "a", 0.4, base_events());
   auto shifted = base_events();
   shifted[4].t += 2e-5;  // contact 0's second slip, 20 µs late
-  write_run(tmp.root / "b", 0.4, shifted);
+  write_run(tmp.path / "b", 0.4, shifted);
 
-  const CompareResult r = compare_runs(tmp.root / "a", tmp.root / "b", 1e-2);
+  const CompareResult r = compare_runs(tmp.path / "a", tmp.path / "b", 1e-2);
   const EventDiff& slips = group(r, 0, EventKind::slip);
   CHECK(slips.matched == 3);
   CHECK(slips.max_dt == Approx(2e-5).epsilon(1e-9));
@@ -226,19 +209,19 @@ TEST_CASE("compare: a shifted event gives its time difference", "[compare]") {
   // 20 µs is within rtol × t_end = 1e-2 × 5 ms = 50 µs …
   CHECK(r.pass());
   // … but not within 1e-3 × 5 ms = 5 µs.
-  const CompareResult tight = compare_runs(tmp.root / "a", tmp.root / "b", 1e-3);
+  const CompareResult tight = compare_runs(tmp.path / "a", tmp.path / "b", 1e-3);
   REQUIRE(tight.failures.size() == 1);
   CHECK_THAT(tight.failures[0], Contains("contact 0 slip"));
 }
 
 TEST_CASE("compare: an extra event is unmatched and fails at any tolerance", "[compare]") {
   TempDir tmp;
-  write_run(tmp.root / "a", 0.4, base_events());
+  write_run(tmp.path / "a", 0.4, base_events());
   auto extra = base_events();
   extra.push_back({1.5e-3, 1, "slip"});
-  write_run(tmp.root / "b", 0.4, extra);
+  write_run(tmp.path / "b", 0.4, extra);
 
-  const CompareResult r = compare_runs(tmp.root / "a", tmp.root / "b", 0.5);
+  const CompareResult r = compare_runs(tmp.path / "a", tmp.path / "b", 0.5);
   const EventDiff& d = group(r, 1, EventKind::slip);
   CHECK(d.matched == 1);
   CHECK(d.unmatched_a == 0);
@@ -250,11 +233,11 @@ TEST_CASE("compare: an extra event is unmatched and fails at any tolerance", "[c
 
   // The other way round the extra event is A's; a kind that only one run has
   // is a group with nothing matched.
-  const CompareResult back = compare_runs(tmp.root / "b", tmp.root / "a", 0.5);
+  const CompareResult back = compare_runs(tmp.path / "b", tmp.path / "a", 0.5);
   CHECK(group(back, 1, EventKind::slip).unmatched_a == 1);
-  write_events(tmp.root / "b", {{1e-3, 2, "stick"}});
-  write_events(tmp.root / "a", {});
-  const CompareResult lone = compare_runs(tmp.root / "a", tmp.root / "b", 0.5);
+  write_events(tmp.path / "b", {{1e-3, 2, "stick"}});
+  write_events(tmp.path / "a", {});
+  const CompareResult lone = compare_runs(tmp.path / "a", tmp.path / "b", 0.5);
   REQUIRE(lone.events.size() == 1);
   CHECK(lone.events[0].matched == 0);
   CHECK(std::isnan(lone.events[0].max_dt));
@@ -264,7 +247,7 @@ TEST_CASE("compare: an extra event is unmatched and fails at any tolerance", "[c
 
 TEST_CASE("compare: traces on different grids are interpolated linearly onto A's", "[compare]") {
   TempDir tmp;
-  const fs::path a = tmp.root / "a", b = tmp.root / "b";
+  const fs::path a = tmp.path / "a", b = tmp.path / "b";
   write_summary(a, 0.4);
   write_summary(b, 0.4);
 
@@ -335,9 +318,9 @@ TEST_CASE("compare: traces on different grids are interpolated linearly onto A's
 
 TEST_CASE("compare: files present in only one run are reported, not compared", "[compare]") {
   TempDir tmp;
-  write_run(tmp.root / "a", 0.4, base_events());
-  write_summary(tmp.root / "b", 0.4);
-  const CompareResult r = compare_runs(tmp.root / "a", tmp.root / "b", 1e-2);
+  write_run(tmp.path / "a", 0.4, base_events());
+  write_summary(tmp.path / "b", 0.4);
+  const CompareResult r = compare_runs(tmp.path / "a", tmp.path / "b", 1e-2);
   CHECK(r.traces_a);
   CHECK_FALSE(r.traces_b);
   CHECK(r.traces.empty());
@@ -354,7 +337,7 @@ TEST_CASE("compare: files present in only one run are reported, not compared", "
 TEST_CASE("compare: bad input is a CompareError, exit code 2, one line naming the file",
           "[compare]") {
   TempDir tmp;
-  const fs::path a = tmp.root / "a", b = tmp.root / "b";
+  const fs::path a = tmp.path / "a", b = tmp.path / "b";
   write_run(a, 0.4, base_events());
   fs::create_directories(b);
 
@@ -432,28 +415,28 @@ TEST_CASE("compare: bad input is a CompareError, exit code 2, one line naming th
 // The command line itself: the subcommand's wiring in main and its exit codes.
 TEST_CASE("compare: the stickslip compare command", "[compare]") {
   TempDir tmp;
-  write_run(tmp.root / "a", 0.4, base_events());
-  write_run(tmp.root / "b", 0.42, base_events());
+  write_run(tmp.path / "a", 0.4, base_events());
+  write_run(tmp.path / "b", 0.42, base_events());
   auto run = [&](const std::string& args) {
     const std::string cmd = std::string("'") + STICKSLIP_EXE + "' compare " + args + " >'" +
-                            (tmp.root / "stdout").string() + "' 2>'" +
-                            (tmp.root / "stderr").string() + "'";
+                            (tmp.path / "stdout").string() + "' 2>'" +
+                            (tmp.path / "stderr").string() + "'";
     const int status = std::system(cmd.c_str());
     return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
   };
-  const std::string a = "'" + (tmp.root / "a").string() + "'";
-  const std::string b = "'" + (tmp.root / "b").string() + "'";
+  const std::string a = "'" + (tmp.path / "a").string() + "'";
+  const std::string b = "'" + (tmp.path / "b").string() + "'";
 
   CHECK(run(a + " " + b) == 1);  // default rtol 1e-2 < 5 %
-  CHECK_THAT(slurp(tmp.root / "stdout"), Contains("FAIL"));
-  CHECK(fs::exists(tmp.root / "b" / "compare.json"));
+  CHECK_THAT(slurp(tmp.path / "stdout"), Contains("FAIL"));
+  CHECK(fs::exists(tmp.path / "b" / "compare.json"));
 
-  const fs::path out = tmp.root / "c.json";
+  const fs::path out = tmp.path / "c.json";
   CHECK(run(a + " " + b + " --rtol 0.1 --out '" + out.string() + "'") == 0);
   CHECK(nlohmann::json::parse(slurp(out))["rtol"] == 0.1);
 
-  CHECK(run(a + " '" + (tmp.root / "nowhere").string() + "'") == 2);
-  const std::string err = slurp(tmp.root / "stderr");
+  CHECK(run(a + " '" + (tmp.path / "nowhere").string() + "'") == 2);
+  const std::string err = slurp(tmp.path / "stderr");
   CHECK_THAT(err, StartsWith("error: "));
   CHECK_THAT(err, Contains("nowhere"));
 

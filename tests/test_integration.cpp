@@ -10,12 +10,13 @@
 #include "stickslip/integrate/integrator.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/run/run.hpp"
+#include "temp_dir.hpp"
 #include "test_cases.hpp"
 
 using namespace stickslip;
 
-using test::make_system;
-using test::two_contact_case;
+using stickslip::test::make_system;
+using stickslip::test::two_contact_case;
 
 TEST_CASE("implicit stage equation is solved to rounding, from rest to fast slip", "[stage]") {
   const Case c = two_contact_case();
@@ -129,12 +130,12 @@ TEST_CASE("cases/steady.toml reaches the exact steady-sliding mu", "[steady]") {
                        m * eta_c * c.drive.velocity / (i.epsilon * i.max_pressure * a * a);
 
   RunOptions options;
-  options.out_dir = std::filesystem::temp_directory_path() / "stickslip_test_steady";
+  const ::test::TempDir tmp("stickslip_test_steady");
+  options.out_dir = tmp.path / "out";
   options.overwrite = true;
   options.quiet = true;
   const Summary r = run_case(c, options);
   const auto summary = nlohmann::json::parse(std::ifstream(options.out_dir / "summary.json"));
-  std::filesystem::remove_all(options.out_dir);
   INFO("mu = " << r.mu << ", exact " << exact);
   CHECK(std::abs(r.mu / exact - 1) < 5e-3);
   // Over whole cycles of F_f, from friction.csv's samples: the same steady value.

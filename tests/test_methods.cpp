@@ -14,6 +14,7 @@
 #include "stickslip/integrate/integrator.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/run/run.hpp"
+#include "temp_dir.hpp"
 
 using namespace stickslip;
 namespace fs = std::filesystem;
@@ -69,13 +70,7 @@ double relative_error(const std::vector<double>& a, const std::vector<double>& r
   return std::sqrt(num / den);
 }
 
-struct TempDir {
-  fs::path path;
-  explicit TempDir(const std::string& name) : path(fs::temp_directory_path() / name) {
-    fs::remove_all(path);
-  }
-  ~TempDir() { fs::remove_all(path); }
-};
+using test::TempDir;
 
 }  // namespace
 

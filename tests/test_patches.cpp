@@ -12,6 +12,7 @@
 #include "stickslip/model/contacts.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/run/run.hpp"
+#include "temp_dir.hpp"
 
 using namespace stickslip;
 
@@ -146,12 +147,12 @@ TEST_CASE("with 2x2 patches, cases/steady.toml reaches the exact steady-sliding 
                        m * eta_c * c.drive.velocity / (i.epsilon * i.max_pressure * a * a);
 
   RunOptions options;
-  options.out_dir = std::filesystem::temp_directory_path() / "stickslip_test_patch_steady";
+  const test::TempDir tmp("stickslip_test_patch_steady");
+  options.out_dir = tmp.path / "out";
   options.overwrite = true;
   options.quiet = true;
   const Summary r = run_case(c, options);
   const auto summary = nlohmann::json::parse(std::ifstream(options.out_dir / "summary.json"));
-  std::filesystem::remove_all(options.out_dir);
   INFO("mu = " << r.mu << ", exact " << exact);
   CHECK(std::abs(r.mu / exact - 1) < 5e-3);
   CHECK(summary.at("theta").get<double>() == Approx(20.0 / 36).epsilon(1e-15));

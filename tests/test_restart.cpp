@@ -19,6 +19,7 @@
 #include "stickslip/output/summary.hpp"
 #include "stickslip/output/tables.hpp"
 #include "stickslip/output/writers.hpp"
+#include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace stickslip;
@@ -71,9 +72,8 @@ TEST_CASE("a run stopped by SIGTERM and restarted agrees with an uninterrupted o
           "[slow][restart]") {
   const std::string format = GENERATE("csv", "hdf5");
   INFO("[output] format = " << format);
-  const fs::path box = fs::temp_directory_path() / ("stickslip_test_restart_" + format);
-  fs::remove_all(box);
-  fs::create_directories(box);
+  const test::TempDir tmp("stickslip_test_restart_" + format);
+  const fs::path& box = tmp.path;
   std::ofstream(box / "two.toml") << kCase << "format = \"" << format << "\"\n";
   const std::string exe = STICKSLIP_EXE, dir = box.string();
 
@@ -165,14 +165,12 @@ TEST_CASE("a run stopped by SIGTERM and restarted agrees with an uninterrupted o
     CHECK(events[k].t >= events[k - 1].t);
     CHECK_FALSE((events[k].t == events[k - 1].t && events[k].contact == events[k - 1].contact));
   }
-  fs::remove_all(box);
 }
 
 TEST_CASE("SIGTERM inside a long output interval stops the run at once and it restarts",
           "[slow][restart]") {
-  const fs::path box = fs::temp_directory_path() / "stickslip_test_restart_mid";
-  fs::remove_all(box);
-  fs::create_directories(box);
+  const test::TempDir tmp("stickslip_test_restart_mid");
+  const fs::path& box = tmp.path;
   // One output row at the end: before, the run answered a signal only there.
   std::ofstream(box / "two.toml") << kCase;
   const std::string exe = STICKSLIP_EXE, dir = box.string();
@@ -204,14 +202,13 @@ TEST_CASE("SIGTERM inside a long output interval stops the run at once and it re
   INFO(to_json(r).dump(1));
   CHECK(r.mu_rel_diff < 1e-5);
   for (const auto& e : r.events) CHECK(e.max_dt < 1e-7);
-  fs::remove_all(box);
 }
 
 TEST_CASE("a restart drops a row cut off mid-write by a killed run", "[restart]") {
-  const fs::path file = fs::temp_directory_path() / "stickslip_test_cut_row.csv";
+  const test::TempDir tmp("stickslip_test_cut_row");
+  const fs::path file = tmp.path / "cut_row.csv";
   // The last row lost its newline and the end of its time (0.00012 -> 0.0).
   std::ofstream(file) << "t,F_f\n0,0\n1e-05,2.5\n2e-05,5.25\n0.0";
   keep_rows_up_to(file, 1e-4);
   CHECK(first_column(file) == std::vector<double>{0.0, 1e-5, 2e-5});
-  fs::remove(file);
 }

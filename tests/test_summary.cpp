@@ -10,6 +10,7 @@
 
 #include "stickslip/output/summary.hpp"
 #include "stickslip/output/writers.hpp"
+#include "temp_dir.hpp"
 
 using namespace stickslip;
 namespace fs = std::filesystem;
@@ -152,9 +153,8 @@ TEST_CASE("a summary with a field missing or of the wrong type names it", "[summ
 }
 
 TEST_CASE("read_summary: none, cut short, not a summary, and a written one", "[summary]") {
-  const fs::path dir = fs::temp_directory_path() / "stickslip_test_summary";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const test::TempDir tmp("stickslip_test_summary");
+  const fs::path& dir = tmp.path;
   CHECK_FALSE(read_summary(dir));  // no file
   std::ofstream(dir / "summary.json") << R"({"mu": 5.2, "theta")";
   CHECK_FALSE(read_summary(dir));  // cut short: not finished
@@ -165,5 +165,4 @@ TEST_CASE("read_summary: none, cut short, not a summary, and a written one", "[s
   const auto s = read_summary(dir);
   REQUIRE(s);
   CHECK(s->mu == 5.25);
-  fs::remove_all(dir);
 }

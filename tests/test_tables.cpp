@@ -18,6 +18,7 @@
 #include "stickslip/output/tables.hpp"
 #include "stickslip/output/writers.hpp"
 #include "stickslip/run/run.hpp"
+#include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace stickslip;
@@ -25,13 +26,6 @@ using namespace stickslip;
 namespace {
 
 using Columns = std::map<std::string, std::vector<double>>;
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 // A CSV file's columns by header name, parsed here (not by the code under
 // test); the events' kind text as EventKind's number.
@@ -96,7 +90,8 @@ TEST_CASE("a table reads back the same from CSV and HDF5, also after a restart's
   const long rows = 5000, kept = 3000, more = 1200;
   for (const OutputFormat format : {OutputFormat::csv, OutputFormat::hdf5}) {
     INFO(to_string(format));
-    const fs::path dir = fresh_dir(std::string("stickslip_test_tables_") + to_string(format));
+    const test::TempDir tmp(std::string("stickslip_test_tables_") + to_string(format));
+    const fs::path& dir = tmp.path;
     {
       const auto store = make_table_store(format, dir, false);
       const auto table = store->create(spec);
@@ -135,7 +130,6 @@ TEST_CASE("a table reads back the same from CSV and HDF5, also after a restart's
           REQUIRE(same_number(expected[c + 1], value));
       }
     }
-    fs::remove_all(dir);
   }
 }
 
@@ -152,7 +146,8 @@ TEST_CASE("events, with their label column, read back the same from CSV and HDF5
                                    {2.25e-4, 0, EventKind::stick, 4.75e-4, 1e-2}};
   for (const OutputFormat format : {OutputFormat::csv, OutputFormat::hdf5}) {
     INFO(to_string(format));
-    const fs::path dir = fresh_dir(std::string("stickslip_test_events_") + to_string(format));
+    const test::TempDir tmp(std::string("stickslip_test_events_") + to_string(format));
+    const fs::path& dir = tmp.path;
     {
       const auto table = make_table_store(format, dir, false)->create(spec);
       for (const Event& e : written) {
@@ -177,14 +172,13 @@ TEST_CASE("events, with their label column, read back the same from CSV and HDF5
       table->flush();
     }
     CHECK(read_run_events(dir).empty());
-    fs::remove_all(dir);
   }
 }
 
 TEST_CASE("a resumed table that does not exist is an output error naming it", "[tables]") {
   for (const OutputFormat format : {OutputFormat::csv, OutputFormat::hdf5}) {
-    const fs::path dir =
-        fresh_dir(std::string("stickslip_test_tables_missing_") + to_string(format));
+    const test::TempDir tmp(std::string("stickslip_test_tables_missing_") + to_string(format));
+    const fs::path& dir = tmp.path;
     make_table_store(format, dir, false);  // creates run.h5 (empty) in HDF5
     const auto store = make_table_store(format, dir, true);
     CHECK_THROWS_AS(store->resume(test_spec(), 0.0), OutputError);
@@ -193,13 +187,13 @@ TEST_CASE("a resumed table that does not exist is an output error naming it", "[
     } catch (const OutputError& e) {
       CHECK_THAT(e.what(), Catch::Contains("probe"));
     }
-    fs::remove_all(dir);
   }
 }
 
 TEST_CASE("a run in format hdf5 holds the same numbers as the same run's CSV files",
           "[slow][tables]") {
-  const fs::path box = fresh_dir("stickslip_test_hdf5_run");
+  const test::TempDir tmp("stickslip_test_hdf5_run");
+  const fs::path& box = tmp.path;
   // Every output on: two contacts that stick and slip on a small lattice.
   const std::string text = R"([lattice]
 nx = 6
@@ -254,5 +248,4 @@ final_state = true
   CHECK(read_hdf5_attribute(h5, "git_commit") == from_file.git_commit);
   // The same run: μ from the same integration, bit for bit.
   CHECK(read_summary(dirs["csv"])->mu == from_file.mu);
-  fs::remove_all(box);
 }
