@@ -175,6 +175,23 @@ TEST_CASE("events, with their label column, read back the same from CSV and HDF5
   }
 }
 
+TEST_CASE("a run's table that cannot be read back is an output error naming the file and line",
+          "[tables]") {
+  // A restart reads its own tables back: one it cannot read leaves the output
+  // directory unusable (OutputError, exit code 2), not a failed comparison.
+  const test::TempDir tmp("stickslip_test_tables_bad");
+  std::ofstream(tmp.path / "friction.csv") << "t,F_f,mu_inst\n0,0,0\n1e-05,1,2\n1e-05,1,2\n";
+  try {
+    read_run_table(tmp.path, "friction");
+    FAIL("read a table whose time does not increase");
+  } catch (const OutputError& e) {
+    CHECK_THAT(e.what(), Catch::Contains((tmp.path / "friction.csv").string()) &&
+                             Catch::Contains("line 4: time does not increase"));
+  }
+  std::ofstream(tmp.path / "events.csv") << "t,contact,kind\n1e-05,0,slide\n";
+  CHECK_THROWS_AS(read_run_events(tmp.path), OutputError);
+}
+
 TEST_CASE("a resumed table that does not exist is an output error naming it", "[tables]") {
   for (const OutputFormat format : {OutputFormat::csv, OutputFormat::hdf5}) {
     const test::TempDir tmp(std::string("stickslip_test_tables_missing_") + to_string(format));

@@ -15,7 +15,6 @@
 #include <type_traits>
 #include <utility>
 
-#include "stickslip/analysis/compare.hpp"
 #include "stickslip/output/writers.hpp"
 
 namespace stickslip {
@@ -343,7 +342,7 @@ Handle open_for_reading(const fs::path& file) {
   // This process's own run has it open already (a recorder reading its table
   // back), with the lock: HDF5 shares that open file only with the same flags.
   if (!f.valid()) f = Handle(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-  if (!f.valid()) throw CompareError(file.string() + ": cannot open" + why_hdf5());
+  if (!f.valid()) throw OutputError(file.string() + ": cannot open" + why_hdf5());
   return f;
 }
 
@@ -381,10 +380,10 @@ std::vector<std::pair<std::string, std::vector<double>>> read_hdf5_table(const f
   const Handle f = open_for_reading(file);
   const std::string where = file.string() + ": /" + name;
   Handle group(H5Gopen2(f.get(), name.c_str(), H5P_DEFAULT), H5Gclose);
-  if (!group.valid()) throw CompareError(where + ": no such table");
+  if (!group.valid()) throw OutputError(where + ": no such table");
   H5G_info_t info;
   if (H5Gget_info(group.get(), &info) < 0)
-    throw CompareError(where + ": cannot list the datasets" + why_hdf5());
+    throw OutputError(where + ": cannot list the datasets" + why_hdf5());
   // The datasets in the order they were made; a 2-D one names the dataset
   // that lists its members, which is not a column itself.
   struct Set {
@@ -397,14 +396,14 @@ std::vector<std::pair<std::string, std::vector<double>>> read_hdf5_table(const f
     char link[256];
     if (H5Lget_name_by_idx(group.get(), ".", H5_INDEX_CRT_ORDER, H5_ITER_INC, i, link, sizeof link,
                            H5P_DEFAULT) < 0)
-      throw CompareError(where + ": cannot list the datasets");
+      throw OutputError(where + ": cannot list the datasets");
     Handle set(H5Dopen2(group.get(), link, H5P_DEFAULT), H5Dclose);
-    if (!set.valid()) throw CompareError(where + "/" + link + ": not a dataset");
+    if (!set.valid()) throw OutputError(where + "/" + link + ": not a dataset");
     Set s{link, text_attribute(set.get(), "members"), {}};
     Handle space(H5Dget_space(set.get()), H5Sclose);
     hsize_t dims[2] = {0, 1};
     const int rank = H5Sget_simple_extent_ndims(space.get());
-    if (rank < 1 || rank > 2) throw CompareError(where + "/" + link + ": not 1-D or 2-D");
+    if (rank < 1 || rank > 2) throw OutputError(where + "/" + link + ": not 1-D or 2-D");
     H5Sget_simple_extent_dims(space.get(), dims, nullptr);
     s.rows = dims[0];
     s.width = rank == 2 ? dims[1] : 1;
@@ -417,7 +416,7 @@ std::vector<std::pair<std::string, std::vector<double>>> read_hdf5_table(const f
       // number type, so it is read as its own (one-byte) type and widened.
       Handle native(H5Tget_native_type(stored.get(), H5T_DIR_ASCEND), H5Tclose);
       if (H5Tget_size(native.get()) != 1)
-        throw CompareError(where + "/" + link + ": an enumeration wider than one byte");
+        throw OutputError(where + "/" + link + ": an enumeration wider than one byte");
       std::vector<std::int8_t> codes(s.values.size());
       status = H5Dread(set.get(), native.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, codes.data());
       std::copy(codes.begin(), codes.end(), s.values.begin());
@@ -425,7 +424,7 @@ std::vector<std::pair<std::string, std::vector<double>>> read_hdf5_table(const f
       status =
           H5Dread(set.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, s.values.data());
     }
-    if (status < 0) throw CompareError(where + "/" + link + ": cannot read");
+    if (status < 0) throw OutputError(where + "/" + link + ": cannot read");
     sets.push_back(std::move(s));
   }
   std::vector<std::pair<std::string, std::vector<double>>> columns;
@@ -434,19 +433,19 @@ std::vector<std::pair<std::string, std::vector<double>>> read_hdf5_table(const f
     if (std::any_of(sets.begin(), sets.end(), [&](const Set& o) { return o.members == s.name; }))
       continue;  // the members of a 2-D dataset
     if (s.rows != rows)
-      throw CompareError(where + "/" + s.name + ": " + std::to_string(s.rows) + " rows, not " +
-                         std::to_string(rows) + " as " + sets.front().name);
+      throw OutputError(where + "/" + s.name + ": " + std::to_string(s.rows) + " rows, not " +
+                        std::to_string(rows) + " as " + sets.front().name);
     if (s.members.empty()) {
       if (s.width != 1)
-        throw CompareError(where + "/" + s.name + ": 2-D without a \"members\" attribute");
+        throw OutputError(where + "/" + s.name + ": 2-D without a \"members\" attribute");
       columns.emplace_back(s.name, s.values);
       continue;
     }
     const auto ids =
         std::find_if(sets.begin(), sets.end(), [&](const Set& o) { return o.name == s.members; });
     if (ids == sets.end() || ids->values.size() != s.width)
-      throw CompareError(where + "/" + s.name + ": its members (" + s.members +
-                         ") are missing or do not match its width");
+      throw OutputError(where + "/" + s.name + ": its members (" + s.members +
+                        ") are missing or do not match its width");
     for (hsize_t m = 0; m < s.width; ++m) {
       std::vector<double> column(rows);
       for (hsize_t r = 0; r < rows; ++r) column[r] = s.values[r * s.width + m];

@@ -6,7 +6,6 @@
 #include <cstdio>
 #include <fstream>
 
-#include "stickslip/analysis/compare.hpp"
 #include "stickslip/analysis/cycles.hpp"
 #include "stickslip/output/recorder.hpp"
 #include "stickslip/output/tables.hpp"

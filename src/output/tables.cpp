@@ -7,7 +7,6 @@
 #include <fstream>
 
 #include "hdf5_tables.hpp"
-#include "stickslip/analysis/compare.hpp"
 #include "stickslip/output/writers.hpp"
 
 namespace stickslip {
@@ -111,12 +110,12 @@ TraceTable read_run_table(const fs::path& dir, const std::string& name) {
   auto columns = read_hdf5_table(file, name);
   const std::string where = file.string() + ": /" + name;
   if (columns.empty() || columns.front().first != "t")
-    throw CompareError(where + ": the first dataset is not \"t\"");
+    throw OutputError(where + ": the first dataset is not \"t\"");
   TraceTable table;
   table.t = std::move(columns.front().second);
   for (std::size_t i = 0; i < table.t.size(); ++i)
     if (!std::isfinite(table.t[i]) || (i > 0 && !(table.t[i] > table.t[i - 1])))
-      throw CompareError(where + "/t: row " + std::to_string(i) + ": time does not increase");
+      throw OutputError(where + "/t: row " + std::to_string(i) + ": time does not increase");
   for (std::size_t c = 1; c < columns.size(); ++c) {
     table.columns.push_back(std::move(columns[c].first));
     table.values.push_back(std::move(columns[c].second));
@@ -135,23 +134,23 @@ std::vector<Event> read_run_events(const fs::path& dir) {
   };
   const auto *t = column("t"), *contact = column("contact"), *kind = column("kind");
   if (!t || !contact || !kind)
-    throw CompareError(file.string() + ": /events: needs the datasets t, contact and kind");
+    throw OutputError(file.string() + ": /events: needs the datasets t, contact and kind");
   const auto *speed = column("speed"), *force = column("force");
   std::vector<Event> events(t->size());
   for (std::size_t i = 0; i < events.size(); ++i) {
     Event& e = events[i];
     e.t = (*t)[i];
     if (!std::isfinite(e.t))
-      throw CompareError(file.string() + ": /events/t: row " + std::to_string(i) +
-                         ": time is not finite");
+      throw OutputError(file.string() + ": /events/t: row " + std::to_string(i) +
+                        ": time is not finite");
     e.contact = static_cast<int>((*contact)[i]);
     if (e.contact != (*contact)[i] || e.contact < 0)
-      throw CompareError(file.string() + ": /events/contact: row " + std::to_string(i) +
-                         ": not a contact id");
+      throw OutputError(file.string() + ": /events/contact: row " + std::to_string(i) +
+                        ": not a contact id");
     const double k = (*kind)[i];
     if (k != static_cast<double>(EventKind::slip) && k != static_cast<double>(EventKind::stick))
-      throw CompareError(file.string() + ": /events/kind: row " + std::to_string(i) +
-                         " is neither slip nor stick");
+      throw OutputError(file.string() + ": /events/kind: row " + std::to_string(i) +
+                        " is neither slip nor stick");
     e.kind = static_cast<EventKind>(static_cast<int>(k));
     if (speed) e.speed = (*speed)[i];
     if (force) e.force = (*force)[i];

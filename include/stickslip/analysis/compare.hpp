@@ -94,10 +94,4 @@ int compare_command(const std::filesystem::path& dir_a, const std::filesystem::p
                     double rtol, const std::filesystem::path& json_file, std::ostream& out,
                     std::ostream& err);
 
-// Readers of a run's CSV outputs; they throw CompareError naming the file,
-// with the line number for a malformed row. (output/tables.hpp reads a run's
-// tables in either format.)
-TraceTable read_traces_csv(const std::filesystem::path& file);
-std::vector<Event> read_events_csv(const std::filesystem::path& file);
-
 }  // namespace stickslip

@@ -86,9 +86,15 @@ bool has_run_table(const std::filesystem::path& dir, const std::string& name);
 // same columns and names as its CSV file (a 2-D HDF5 dataset `vx` with member
 // contact ids 0, 3 reads as columns vx_0, vx_3; HDF5 lists a 2-D dataset's
 // columns together). Not for a table with a label column (events: below).
-// CompareError (analysis/compare.hpp) if it is missing or malformed.
+// OutputError (output/writers.hpp) if it is missing or malformed: a run that
+// cannot read back its own table cannot continue (exit code 2).
 TraceTable read_run_table(const std::filesystem::path& dir, const std::string& name);
 // The events table of the run in `dir`, in either format.
 std::vector<Event> read_run_events(const std::filesystem::path& dir);
+
+// Readers of one CSV table (src/output/csv_tables.cpp); OutputError naming the
+// file, with the line number for a malformed row.
+TraceTable read_traces_csv(const std::filesystem::path& file);
+std::vector<Event> read_events_csv(const std::filesystem::path& file);
 
 }  // namespace stickslip
