@@ -277,10 +277,12 @@ Summary run_case(const Case& c, const RunOptions& options) {
     }
   } catch (...) {
     // Keep what was recorded; an output that cannot be flushed now must not
-    // hide why the run stopped.
+    // hide why the run stopped, but the user must learn that rows were lost.
     try {
       flush_all();
-    } catch (const std::exception&) {
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "warning: the outputs could not be flushed as the run stopped: %s\n",
+                   e.what());
     }
     throw;
   }
