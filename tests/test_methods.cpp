@@ -340,7 +340,7 @@ TEST_CASE("a run whose energy audit exceeds the bound reports no mu", "[methods]
   const Summary ok = run_case(c, options);
   const auto summary = nlohmann::json::parse(std::ifstream(options.out_dir / "summary.json"));
   CHECK(summary.at("energy_audit_bound").get<double>() == Approx(100 * c.solver.rtol));
-  CHECK(std::abs(ok.energy_residual) < 100 * c.solver.rtol);
+  CHECK(summary.at("energy_residual").get<double>() == ok.energy_residual);
 
   // Held to a bound this loose rtol cannot meet. Below one absolute energy
   // tolerance a residual is not judged (k1 a atol_u), so atol_u is given
@@ -574,8 +574,10 @@ TEST_CASE("dirk and bdf run from rest through the pair's first slips, at a conve
     c.solver.method = m;  // at the default tolerance, rtol 1e-6
     const fs::path out = dir.path / to_string(m);
     const Summary r = run_case(c, {out, false, true});  // throws if the audit fails
+    // run_case refuses |R| above 100 rtol; sound runs stay below 10 rtol
+    // (docs/STABILITY.md), and this one should too.
     INFO(to_string(m) << ": energy residual " << r.energy_residual);
-    CHECK(std::abs(r.energy_residual) < 100 * c.solver.rtol);
+    CHECK(std::abs(r.energy_residual) < 10 * c.solver.rtol);
     const auto onsets = slip_onsets(out, 0);
     REQUIRE(onsets.size() == expected.size());
     for (std::size_t k = 0; k < onsets.size(); ++k) {
