@@ -6,6 +6,7 @@
 
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <vector>
 
@@ -142,8 +143,11 @@ struct Twin {
       : plain(plain_vector(values, ctx)), ours(make_serial_vector(values, ctx)) {}
 };
 
+// Bit for bit: == would take −0 for +0 (and never match a NaN).
 void check_same(const Twin& t) {
-  CHECK(values_of(t.ours.get()) == values_of(t.plain.get()));
+  const auto ours = values_of(t.ours.get()), plain = values_of(t.plain.get());
+  REQUIRE(ours.size() == plain.size());
+  CHECK(std::memcmp(ours.data(), plain.data(), ours.size() * sizeof(double)) == 0);
 }
 
 // Random values with exact zeros, ties and signed zeros among them, where the
@@ -166,7 +170,11 @@ TEST_CASE("the linear sum equals SUNDIALS' bit for bit in each of its special ca
                                                     {c, -c}, {1, d},  {d, 1},  {-1, d},  {d, -1},
                                                     {c, d},  {0, d},  {c, 0},  {0, 0},   {-c, c}};
   for (std::size_t n : {1u, 7u, 1000u}) {
-    const auto x = random_values(n, gen), y = random_values(n, gen);
+    const auto x = random_values(n, gen);
+    auto y = random_values(n, gen);
+    // Entries where y = x and y = −x: there the special cases differ from
+    // a x + b y in the sign of a zero result.
+    for (std::size_t i = 0; i < n; i += 3) y[i] = i % 2 == 0 ? x[i] : -x[i];
     for (auto [a, b] : coefficients)
       for (int alias : {0, 1, 2}) {  // z separate, z = x, z = y
         INFO("a = " << a << ", b = " << b << ", alias " << alias);

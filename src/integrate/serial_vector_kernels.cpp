@@ -27,21 +27,37 @@ sunindextype length(N_Vector v) {
   return NV_LENGTH_S(v);
 }
 
-// z = a x + b y. SUNDIALS' special cases give the same value as a x + b y
-// (a·1 and −1·x are exact, and addition commutes) except two: a = b, where it
-// forms a (x + y), and a = −b, where it forms a (x − y).
+// z = a x + b y, through SUNDIALS' special cases in its order: they give
+// the same values as a x + b y but for the sign of a zero result (y − x
+// against −(x − y)) and for a = ±b, where it forms a (x ± y).
 void linear_sum(double a, N_Vector x, double b, N_Vector y, N_Vector z) {
   const sunindextype n = length(z);
   const double* xd = data(x);
   const double* yd = data(y);
   double* zd = data(z);
-  if (a == b) {
-    for (sunindextype i = 0; i < n; ++i) zd[i] = a * (xd[i] + yd[i]);
-  } else if (a == -b) {
-    for (sunindextype i = 0; i < n; ++i) zd[i] = a * (xd[i] - yd[i]);
-  } else {
-    for (sunindextype i = 0; i < n; ++i) zd[i] = a * xd[i] + b * yd[i];
-  }
+  auto each = [&](auto&& f) {
+    for (sunindextype i = 0; i < n; ++i) zd[i] = f(xd[i], yd[i]);
+  };
+  if (a == 1.0 && b == 1.0)
+    each([](double u, double v) { return u + v; });
+  else if (a == 1.0 && b == -1.0)
+    each([](double u, double v) { return u - v; });
+  else if (a == -1.0 && b == 1.0)
+    each([](double u, double v) { return v - u; });
+  else if (a == 1.0)
+    each([b](double u, double v) { return b * v + u; });
+  else if (b == 1.0)
+    each([a](double u, double v) { return a * u + v; });
+  else if (a == -1.0)
+    each([b](double u, double v) { return b * v - u; });
+  else if (b == -1.0)
+    each([a](double u, double v) { return a * u - v; });
+  else if (a == b)
+    each([a](double u, double v) { return a * (u + v); });
+  else if (a == -b)
+    each([a](double u, double v) { return a * (u - v); });
+  else
+    each([a, b](double u, double v) { return a * u + b * v; });
 }
 
 void constant(double c, N_Vector z) {
@@ -240,11 +256,7 @@ int scale_add_multi(int nvec, sunrealtype* a, N_Vector x, N_Vector* Y, N_Vector*
     const double* yd = data(Y[i]);
     double* zd = data(Z[i]);
     const double ai = a[i];
-    if (ai == 1.0) {
-      for (sunindextype j = 0; j < n; ++j) zd[j] = xd[j] + yd[j];
-    } else {
-      for (sunindextype j = 0; j < n; ++j) zd[j] = ai * xd[j] + yd[j];
-    }
+    for (sunindextype j = 0; j < n; ++j) zd[j] = ai * xd[j] + yd[j];
   }
   return 0;
 }

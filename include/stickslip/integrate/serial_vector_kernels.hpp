@@ -7,7 +7,8 @@
 namespace stickslip {
 
 // Replaces the operations of serial vector `v` (and of its future clones)
-// with this file's kernels, each computing what SUNDIALS' own computes.
+// with this file's kernels, each computing what SUNDIALS' own computes, bit
+// for bit (the WRMS norm: to rounding).
 void use_compiled_kernels(N_Vector v);
 
 }  // namespace stickslip
