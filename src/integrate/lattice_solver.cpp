@@ -189,9 +189,7 @@ void LatticeSolver::solve(std::span<const double> r, std::span<double> w) {
 }
 
 double LatticeSolver::green(int dx, int dy, int a, int b) const {
-  dx = ((dx % nx_) + nx_) % nx_;
-  dy = ((dy % ny_) + ny_) % ny_;
-  return green_[static_cast<std::size_t>((2 * a + b) * nx_ * ny_ + dx + nx_ * dy)];
+  return green_wrapped(wrapped_offset(dx, dy), a, b);
 }
 
 }  // namespace stickslip

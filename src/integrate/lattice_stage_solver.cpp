@@ -36,14 +36,11 @@ LatticeStageSolver::LatticeStageSolver(const System& system, double max_gamma_la
       correction_(zero_.size()) {
   const auto& sites = system.sites();
   for (std::size_t i = 0; i < sites_; ++i) site_w_.push_back(system.w_index(sites[i].node, 0));
-  const int nx = system.nx(), ny = system.ny();
   site_offset_.reserve(sites_ * sites_);
   for (std::size_t i = 0; i < sites_; ++i)
-    for (std::size_t j = 0; j < sites_; ++j) {
-      const int dx = ((sites[i].ix - sites[j].ix) % nx + nx) % nx;
-      const int dy = ((sites[i].iy - sites[j].iy) % ny + ny) % ny;
-      site_offset_.push_back(dx + std::int64_t{nx} * dy);
-    }
+    for (std::size_t j = 0; j < sites_; ++j)
+      site_offset_.push_back(
+          lattice_.wrapped_offset(sites[i].ix - sites[j].ix, sites[i].iy - sites[j].iy));
   const auto n = static_cast<Eigen::Index>(2 * sites_);
   coupling_.resize(n, n);
   jacobian_.resize(n, n);

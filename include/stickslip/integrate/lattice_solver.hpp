@@ -50,10 +50,14 @@ class LatticeSolver {
   // and component b of bottom node (ix, iy), for any (ix, iy); a, b ∈ {0, 1}
   // (x, y). Offsets wrap periodically.
   double green(int dx, int dy, int a, int b) const;
-  // The same for an offset already wrapped into [0, Nx) × [0, Ny), given as
-  // dx + Nx dy: no integer division, for the N_c² lookups at every γ.
+  // The same for an offset wrapped once by wrapped_offset: no integer
+  // division, for the N_c² lookups at every γ.
   double green_wrapped(std::int64_t offset, int a, int b) const {
     return green_[static_cast<std::size_t>((2 * a + b) * std::int64_t{nx_} * ny_ + offset)];
+  }
+  // (dx, dy) wrapped periodically into [0, Nx) × [0, Ny), as dx + Nx dy.
+  std::int64_t wrapped_offset(int dx, int dy) const {
+    return ((dx % nx_) + nx_) % nx_ + std::int64_t{nx_} * (((dy % ny_) + ny_) % ny_);
   }
 
   long factorizations() const { return factorizations_; }
