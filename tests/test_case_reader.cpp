@@ -360,6 +360,22 @@ TEST_CASE("errors in --set are reported as --set", "[case][set]") {
           "cases/t.toml:2: interface.contacts[0].site: must lie on the 5x15 interface"));
 }
 
+TEST_CASE("overrides of another origin are reported by their key alone", "[case][set]") {
+  // The Python module's dicts: no "--set" in front of a key the user never typed as one.
+  const auto dict = [](const std::vector<std::string>& overrides) {
+    return stickslip::parse_case("", "<dict>", overrides, "");
+  };
+  REQUIRE_THROWS_WITH(dict({"interface.coverage=2"}),
+                      "interface.coverage: must be in (0, 1], got 2");
+  REQUIRE_THROWS_WITH(dict({"drive.velocty=1"}),
+                      "drive.velocty: unknown key 'velocty' (did you mean 'velocity'?)");
+  REQUIRE_THROWS_WITH(dict({"drive.velocity=[1,"}),
+                      Catch::StartsWith("drive.velocity: malformed TOML value"));
+  REQUIRE_THROWS_WITH(dict({"velocity=1"}), "velocity=1: expected section.key=value");
+  REQUIRE_THROWS_WITH(dict({"run.t_end=1e-3", "run.average_from=2e-3"}),
+                      "run.average_from: must be in [0, run.t_end = 0.001), got 0.002");
+}
+
 TEST_CASE("to_json lists every resolved parameter", "[case]") {
   const Case c = parse(R"([lattice]
 nx = 6

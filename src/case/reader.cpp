@@ -48,13 +48,15 @@ bool from_override(const toml::node& n) {
 // cross-key checks need to blame.
 struct Reader {
   std::string source;
+  std::string override_prefix;  // "--set " before an override's key in messages
   std::map<std::string, const toml::node*, std::less<>> given;  // "section.key" -> its value
   std::vector<const toml::node*> contact_sites, trace_ids,
       event_ids;  // parallel to the Case's lists
 
   [[noreturn]] void fail(const toml::node& at, std::string_view key, std::string_view what) const {
     const auto& src = at.source();
-    if (from_override(at)) throw CaseError("--set "s.append(key) + ": " + std::string(what));
+    if (from_override(at))
+      throw CaseError(override_prefix + std::string(key) + ": " + std::string(what));
     std::string where = src.begin.line ? source + ":" + std::to_string(src.begin.line) : source;
     throw CaseError(where + ": " + std::string(key) + ": " + std::string(what));
   }
@@ -342,17 +344,17 @@ std::string trim(std::string_view s) {
 }
 
 // Puts one "section.key=value" into the parsed file, replacing what was there.
-void apply_override(toml::table& root, std::string_view text) {
+// `prefix` ("--set ") starts every message about the override.
+void apply_override(toml::table& root, std::string_view text, const std::string& prefix) {
   auto eq = text.find('=');
   std::string key = trim(text.substr(0, eq));
   auto dot = key.find('.');
   if (eq == std::string_view::npos || dot == std::string::npos || dot == 0 || dot + 1 == key.size())
-    throw CaseError("--set " + printable(text) + ": expected section.key=value");
+    throw CaseError(prefix + printable(text) + ": expected section.key=value");
   std::string section = key.substr(0, dot), name = key.substr(dot + 1);
   key = printable(key);
-  if (keys_of(section).empty()) throw CaseError("--set " + key + ": " + unknown_section(section));
-  if (!find_entry(section, name))
-    throw CaseError("--set " + key + ": " + unknown_key(section, name));
+  if (keys_of(section).empty()) throw CaseError(prefix + key + ": " + unknown_section(section));
+  if (!find_entry(section, name)) throw CaseError(prefix + key + ": " + unknown_key(section, name));
 
   std::string value = trim(text.substr(eq + 1));
   toml::table parsed;
@@ -365,7 +367,7 @@ void apply_override(toml::table& root, std::string_view text) {
                   return std::isalnum(ch) || ch == '_' || ch == '-';
                 });
     if (!word)
-      throw CaseError("--set " + key + ": malformed TOML value '" + printable(value) +
+      throw CaseError(prefix + key + ": malformed TOML value '" + printable(value) +
                       "': " + e.description);
     parsed = parse_toml("v = \"" + value + "\"", kOverride);
   }
@@ -522,15 +524,16 @@ std::string case_key_problem(std::string_view dotted_key) {
 }
 
 Case parse_case(std::string_view toml_text, const std::filesystem::path& source,
-                const std::vector<std::string>& overrides) {
-  Reader r{printable(source.string()), {}, {}, {}, {}};
+                const std::vector<std::string>& overrides, std::string_view override_origin) {
+  const std::string prefix = override_origin.empty() ? "" : std::string(override_origin) + " ";
+  Reader r{printable(source.string()), prefix, {}, {}, {}, {}};
   toml::table root;
   try {
     root = parse_toml(toml_text, std::string_view(source.native()));
   } catch (const TomlSyntaxError& e) {
     throw CaseError(r.source + ":" + std::to_string(e.line) + ": malformed TOML: " + e.description);
   }
-  for (const auto& o : overrides) apply_override(root, o);
+  for (const auto& o : overrides) apply_override(root, o, prefix);
 
   Case c;
   c.source = source;
@@ -541,7 +544,8 @@ Case parse_case(std::string_view toml_text, const std::filesystem::path& source,
   return c;
 }
 
-Case read_case(const std::filesystem::path& file, const std::vector<std::string>& overrides) {
+Case read_case(const std::filesystem::path& file, const std::vector<std::string>& overrides,
+               std::string_view override_origin) {
   std::error_code ec;
   if (std::filesystem::is_directory(file, ec))
     throw CaseError(printable(file.string()) + ": cannot read case file: it is a directory");
@@ -551,7 +555,7 @@ Case read_case(const std::filesystem::path& file, const std::vector<std::string>
   std::ostringstream text;
   text << in.rdbuf();
   if (in.bad()) throw CaseError(printable(file.string()) + ": cannot read case file: read error");
-  return parse_case(text.str(), file, overrides);
+  return parse_case(text.str(), file, overrides, override_origin);
 }
 
 }  // namespace stickslip

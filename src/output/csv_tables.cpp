@@ -126,6 +126,16 @@ TraceTable read_traces_csv(const fs::path& file) {
   return table;
 }
 
+NamedColumns read_columns_csv(const fs::path& file) {
+  const Csv csv = read_csv(file);
+  NamedColumns columns;
+  for (const auto& name : csv.header) columns.emplace_back(name, std::vector<double>{});
+  for (std::size_t i = 0; i < csv.rows.size(); ++i)
+    for (std::size_t c = 0; c < columns.size(); ++c)
+      columns[c].second.push_back(parse_double(file, csv.line_numbers[i], csv.rows[i][c]));
+  return columns;
+}
+
 std::vector<Event> read_events_csv(const fs::path& file) {
   const Csv csv = read_csv(file);
   // Columns by name, so a writer that adds columns does not break the reader.

@@ -123,6 +123,11 @@ TraceTable read_run_table(const fs::path& dir, const std::string& name) {
   return table;
 }
 
+NamedColumns read_run_columns(const fs::path& dir, const std::string& name) {
+  if (!is_hdf5_run(dir)) return read_columns_csv(csv_file(dir, name));
+  return read_hdf5_table(dir / kHdf5File, name);
+}
+
 std::vector<Event> read_run_events(const fs::path& dir) {
   if (!is_hdf5_run(dir)) return read_events_csv(csv_file(dir, "events"));
   const fs::path file = dir / kHdf5File;

@@ -82,6 +82,21 @@ void install_stop_handlers() {
   std::signal(SIGTERM, request_stop);
 }
 
+ScopedStopHandlers::ScopedStopHandlers() {
+  g_stop_signal = 0;
+  struct sigaction stop {};
+  stop.sa_handler = request_stop;
+  sigemptyset(&stop.sa_mask);
+  sigaction(SIGINT, &stop, &previous_int_);
+  sigaction(SIGTERM, &stop, &previous_term_);
+}
+
+ScopedStopHandlers::~ScopedStopHandlers() {
+  sigaction(SIGINT, &previous_int_, nullptr);
+  sigaction(SIGTERM, &previous_term_, nullptr);
+  g_stop_signal = 0;
+}
+
 std::filesystem::path output_dir_for(const Case& c, const std::filesystem::path& out_flag) {
   if (!out_flag.empty()) return out_flag;
   if (!c.output.dir.empty()) return c.output.dir;

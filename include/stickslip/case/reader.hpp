@@ -22,12 +22,16 @@ class CaseError : public std::runtime_error {
 // Reads and validates `file`. `overrides` are "section.key=value" strings from
 // `--set` (the value is TOML: 0.5, "navier", [1, 2]); they replace the file's
 // values before validation, and errors in them are reported as "--set section.key".
-Case read_case(const std::filesystem::path& file, const std::vector<std::string>& overrides = {});
+// `override_origin` is that "--set": the Python module, whose overrides are a
+// dict's keys, passes "" so that a message starts with the key itself.
+Case read_case(const std::filesystem::path& file, const std::vector<std::string>& overrides = {},
+               std::string_view override_origin = "--set");
 
 // Same, from text already in memory; `source` is the name used in messages and
 // the directory relative paths are resolved against.
 Case parse_case(std::string_view toml_text, const std::filesystem::path& source,
-                const std::vector<std::string>& overrides = {});
+                const std::vector<std::string>& overrides = {},
+                std::string_view override_origin = "--set");
 
 // Empty if "section.key" names a case key; otherwise why not, with the
 // nearest valid name ("unknown key 'covrage' (did you mean 'coverage'?)").

@@ -11,6 +11,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "stickslip/analysis/events.hpp"
@@ -89,12 +90,18 @@ bool has_run_table(const std::filesystem::path& dir, const std::string& name);
 // OutputError (output/writers.hpp) if it is missing or malformed: a run that
 // cannot read back its own table cannot continue (exit code 2).
 TraceTable read_run_table(const std::filesystem::path& dir, const std::string& name);
+// Every column of table `name` of the run in `dir`, in either format, by its
+// CSV name and in its order: for a table without a time column (contacts).
+// Not for a table with a label column. OutputError as read_run_table.
+using NamedColumns = std::vector<std::pair<std::string, std::vector<double>>>;
+NamedColumns read_run_columns(const std::filesystem::path& dir, const std::string& name);
 // The events table of the run in `dir`, in either format.
 std::vector<Event> read_run_events(const std::filesystem::path& dir);
 
 // Readers of one CSV table (src/output/csv_tables.cpp); OutputError naming the
 // file, with the line number for a malformed row.
 TraceTable read_traces_csv(const std::filesystem::path& file);
+NamedColumns read_columns_csv(const std::filesystem::path& file);
 std::vector<Event> read_events_csv(const std::filesystem::path& file);
 
 }  // namespace stickslip

@@ -2,6 +2,8 @@
 // One run of a case: builds the System, integrates it, and streams the
 // observables to the output directory (the Monitor of STYLE.md).
 
+#include <signal.h>
+
 #include <filesystem>
 
 #include "stickslip/case/case.hpp"
@@ -27,6 +29,21 @@ struct Interrupted {
 // SIGINT and SIGTERM then stop a run at its next output time instead of
 // killing it.
 void install_stop_handlers();
+
+// The same for the span of one run in a program that has handlers of its own
+// (the Python module): it clears an earlier stop request, and puts back the
+// handlers it replaced when it goes out of scope.
+class ScopedStopHandlers {
+ public:
+  ScopedStopHandlers();
+  ~ScopedStopHandlers();
+  ScopedStopHandlers(const ScopedStopHandlers&) = delete;
+  ScopedStopHandlers& operator=(const ScopedStopHandlers&) = delete;
+
+ private:
+  struct sigaction previous_int_ {};
+  struct sigaction previous_term_ {};
+};
 
 // The output directory of a case: --out if given, else [output] dir, else
 // out/<case file stem> in the working directory.

@@ -1,0 +1,219 @@
+// stickslip._core: the C++ library as seen from Python. Thin on purpose: it
+// reads and validates cases, runs them, and reads a run's tables back, all
+// through the library the command line uses; the Python package
+// (python/stickslip/__init__.py) turns what it returns into the user's
+// objects (Case, Run, numpy arrays, a DataFrame).
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "stickslip/case/case.hpp"
+#include "stickslip/case/reader.hpp"
+#include "stickslip/integrate/sundials.hpp"
+#include "stickslip/output/summary.hpp"
+#include "stickslip/output/tables.hpp"
+#include "stickslip/output/writers.hpp"
+#include "stickslip/run/run.hpp"
+#include "stickslip/sweep/sweep.hpp"
+#include "stickslip/version.hpp"
+
+namespace py = pybind11;
+namespace fs = std::filesystem;
+
+namespace {
+
+using namespace stickslip;
+
+// Messages about a dict's keys start with the key: "drive.velocity: must be >= 0, got -1".
+constexpr const char* kDictOrigin = "";
+
+py::array_t<double> to_array(const std::vector<double>& v) {
+  return py::array_t<double>(static_cast<py::ssize_t>(v.size()), v.data());
+}
+
+// A table of a run as (column names without "t", t, values [column × row]).
+py::tuple read_table(const fs::path& dir, const std::string& name) {
+  const TraceTable table = read_run_table(dir, name);
+  py::array_t<double> values({table.columns.size(), table.t.size()});
+  auto out = values.mutable_unchecked<2>();
+  for (std::size_t c = 0; c < table.columns.size(); ++c)
+    for (std::size_t r = 0; r < table.t.size(); ++r)
+      out(static_cast<py::ssize_t>(c), static_cast<py::ssize_t>(r)) = table.values[c][r];
+  return py::make_tuple(table.columns, to_array(table.t), values);
+}
+
+// A table without a time column as [(name, values)].
+py::list read_columns(const fs::path& dir, const std::string& name) {
+  py::list out;
+  for (const auto& [column, values] : read_run_columns(dir, name))
+    out.append(py::make_tuple(column, to_array(values)));
+  return out;
+}
+
+py::dict read_events(const fs::path& dir) {
+  const std::vector<Event> events = read_run_events(dir);
+  const auto n = static_cast<py::ssize_t>(events.size());
+  py::array_t<double> t(n), speed(n), force(n);
+  py::array_t<long> contact(n);
+  py::list kind;
+  for (py::ssize_t i = 0; i < n; ++i) {
+    const Event& e = events[static_cast<std::size_t>(i)];
+    t.mutable_at(i) = e.t;
+    contact.mutable_at(i) = e.contact;
+    speed.mutable_at(i) = e.speed;
+    force.mutable_at(i) = e.force;
+    kind.append(to_string(e.kind));
+  }
+  py::dict d;
+  d["t"] = t;
+  d["contact"] = contact;
+  d["kind"] = kind;
+  d["speed"] = speed;
+  d["force"] = force;
+  return d;
+}
+
+// Runs the case; returns summary.json's text, or on SIGINT/SIGTERM
+// ("interrupted", signal, t). The GIL is released for the run; with
+// `handle_signals` (the caller is Python's main thread) SIGINT and SIGTERM
+// stop the run at its next output time, as on the command line.
+py::object run(const Case& c, const fs::path& out, bool overwrite, bool restart, bool quiet,
+               bool handle_signals) {
+  RunOptions options;
+  options.out_dir = out;
+  options.overwrite = overwrite;
+  options.restart = restart;
+  options.quiet = quiet;
+  std::optional<Interrupted> stopped;
+  Summary summary;
+  {
+    py::gil_scoped_release release;
+    std::optional<ScopedStopHandlers> handlers;
+    if (handle_signals) handlers.emplace();
+    try {
+      summary = run_case(c, options);
+    } catch (const Interrupted& stop) {
+      stopped = stop;
+    }
+  }
+  if (stopped) return py::make_tuple("interrupted", stopped->signal, stopped->t);
+  return py::str(to_json(summary).dump());
+}
+
+// `stickslip sweep` without MPI or shards: this process's points not yet
+// finished, `jobs` at a time, then sweep.csv and sweep_summary.csv. Returns
+// the counts and the signal that stopped it (0 if none).
+py::dict sweep(const fs::path& file, const fs::path& out, int jobs,
+               const std::vector<std::string>& sets, bool overwrite, bool any_version,
+               const fs::path& executable, bool handle_signals, bool progress) {
+  const Sweep s = read_sweep(file, sets);
+  const auto points = sweep_points(s);
+  SweepOptions options;
+  options.out_dir = out.empty() ? fs::path("out") / s.source.stem() : out;
+  options.jobs =
+      jobs > 0 ? jobs : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  options.overwrite = overwrite;
+  options.any_version = any_version;
+  options.executable = executable;
+  std::error_code ec;
+  fs::create_directories(options.out_dir, ec);
+  if (ec)
+    throw OutputError(options.out_dir.string() +
+                      ": cannot create output directory: " + ec.message());
+  SweepOutcome outcome;
+  std::size_t finished = 0;
+  {
+    py::gil_scoped_release release;
+    std::optional<ScopedStopHandlers> handlers;
+    if (handle_signals) handlers.emplace();
+    std::ostream silent(nullptr);  // a stream without a buffer writes nothing
+    outcome = run_sweep(s, points, options, progress ? std::cout : silent);
+    std::cout.flush();
+    finished = write_sweep_tables(s, points, options.out_dir, options.any_version);
+  }
+  py::dict d;
+  d["out"] = options.out_dir;
+  d["points"] = outcome.points;
+  d["skipped"] = outcome.skipped;
+  d["ran"] = outcome.ran;
+  d["failed"] = outcome.failed;
+  d["finished"] = finished;
+  d["interrupted_by"] = outcome.interrupted_by;
+  return d;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "stickslip's C++ library; use the package `stickslip`, not this module";
+  m.attr("git_commit") = kGitCommit;
+
+  // Python exceptions with the command line's meaning: CaseError and
+  // OutputError are bad input (exit code 2 there), IntegrationError a run
+  // that failed.
+  static py::exception<CaseError> case_error(m, "CaseError", PyExc_ValueError);
+  static py::exception<OutputError> output_error(m, "OutputError", PyExc_OSError);
+  static py::exception<IntegrationError> integration_error(m, "IntegrationError",
+                                                           PyExc_RuntimeError);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const CaseError& e) {
+      case_error(e.what());
+    } catch (const OutputError& e) {
+      output_error(e.what());
+    } catch (const IntegrationError& e) {
+      integration_error(e.what());
+    }
+  });
+
+  py::class_<Case>(m, "Case", "a validated case (the package's Case wraps it)")
+      .def("to_json", [](const Case& c) { return to_json(c).dump(); })
+      .def_property_readonly("source", [](const Case& c) { return c.source; })
+      .def("output_dir", [](const Case& c) { return output_dir_for(c, {}); });
+
+  m.def(
+      "read_case",
+      [](const fs::path& file, const std::vector<std::string>& overrides) {
+        return read_case(file, overrides, kDictOrigin);
+      },
+      py::arg("file"), py::arg("overrides"));
+  m.def(
+      "parse_case",
+      [](const std::string& text, const fs::path& source,
+         const std::vector<std::string>& overrides) {
+        return parse_case(text, source, overrides, kDictOrigin);
+      },
+      py::arg("text"), py::arg("source"), py::arg("overrides"));
+  m.def("case_key_problem", [](const std::string& key) { return case_key_problem(key); });
+
+  m.def("run", &run, py::arg("case"), py::arg("out"), py::arg("overwrite"), py::arg("restart"),
+        py::arg("quiet"), py::arg("handle_signals"));
+  m.def("sweep", &sweep, py::arg("file"), py::arg("out"), py::arg("jobs"), py::arg("sets"),
+        py::arg("overwrite"), py::arg("any_version"), py::arg("executable"),
+        py::arg("handle_signals"), py::arg("progress"));
+
+  m.def("has_table", &has_run_table, py::arg("dir"), py::arg("name"));
+  m.def("read_table", &read_table, py::arg("dir"), py::arg("name"));
+  m.def("read_columns", &read_columns, py::arg("dir"), py::arg("name"));
+  m.def("read_events", &read_events, py::arg("dir"));
+  m.def(
+      "read_summary",
+      [](const fs::path& dir) -> py::object {
+        const auto s = read_summary(dir);
+        if (!s) return py::none();
+        return py::str(to_json(*s).dump());
+      },
+      py::arg("dir"));
+}

@@ -1,0 +1,34 @@
+"""stickslip from Python: an elastic block sliding on stick-slip contacts.
+
+    import stickslip
+    case = stickslip.Case.from_dict({"lattice": {"nx": 6, "ny": 6, "nz": 4},
+                                     "run": {"t_end": 1e-3}})
+    run = stickslip.run(case.replace({"drive.velocity": 3e-4}))
+    run.summary["mu"], run.friction.t, run.friction.mu_inst
+
+The physics and the numerics are the C++ library the command line uses
+(`stickslip._core`); this package turns cases, runs and their tables into
+Python objects and numpy arrays. The README's "Python" section says more.
+"""
+
+from ._case import Case
+from ._core import CaseError, IntegrationError, OutputError, git_commit
+from ._run import Contacts, Events, Friction, Interrupted, Run, Traces, load, run
+from ._sweep import sweep
+
+__all__ = [
+    "Case",
+    "CaseError",
+    "Contacts",
+    "Events",
+    "Friction",
+    "IntegrationError",
+    "Interrupted",
+    "OutputError",
+    "Run",
+    "Traces",
+    "git_commit",
+    "load",
+    "run",
+    "sweep",
+]

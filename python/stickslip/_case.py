@@ -1,0 +1,148 @@
+"""Cases: read from TOML or from a dict, changed like --set, written as TOML."""
+
+import json
+import math
+import numbers
+import re
+from pathlib import Path
+
+from . import _core
+from ._core import CaseError
+
+_BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+def toml_value(value, key):
+    """`value` as TOML text (what --set takes); CaseError naming `key` if it has no TOML form."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, numbers.Integral):
+        return str(int(value))
+    if isinstance(value, numbers.Real):
+        x = float(value)
+        if math.isnan(x):
+            return "nan"
+        if math.isinf(x):
+            return "inf" if x > 0 else "-inf"
+        return repr(x)  # the shortest text that reads back as x
+    if isinstance(value, (str, Path)):
+        return json.dumps(str(value))  # a TOML basic string
+    if isinstance(value, dict):
+        items = []
+        for k, v in value.items():
+            name = str(k) if _BARE_KEY.match(str(k)) else json.dumps(str(k))
+            items.append(f"{name} = {toml_value(v, f'{key}.{k}')}")
+        return "{" + ", ".join(items) + "}"
+    if isinstance(value, (list, tuple)) or hasattr(value, "tolist"):
+        items = value.tolist() if hasattr(value, "tolist") else value
+        if not isinstance(items, list):  # a numpy scalar
+            return toml_value(items, key)
+        return "[" + ", ".join(toml_value(v, key) for v in items) + "]"
+    raise CaseError(f"{key}: {type(value).__name__} is not a case value ({value!r})")
+
+
+def _overrides(changes):
+    """{"section.key": value} or {"section": {"key": value}} as "section.key=value" strings."""
+    if not isinstance(changes, dict):
+        raise CaseError(f"expected a dict of case keys, got {type(changes).__name__}")
+    overrides = []
+    for name, value in changes.items():
+        name = str(name)
+        if "." in name:
+            overrides.append(f"{name}={toml_value(value, name)}")
+        elif isinstance(value, dict):
+            for key, v in value.items():
+                overrides.append(f"{name}.{key}={toml_value(v, f'{name}.{key}')}")
+        else:
+            problem = _core.case_key_problem(name + ".x")
+            if problem.startswith("unknown key"):  # `name` is a section
+                problem = f"expected a dict of the section's keys, got {type(value).__name__}"
+            raise CaseError(f"{name}: {problem}")
+    return overrides
+
+
+class Case:
+    """A validated case: the same sections, keys, defaults and checks as a case file.
+
+    Made with Case.from_toml(path) or Case.from_dict({...}); case.replace({...})
+    gives a changed copy (as --set does); case.to_toml() and case.to_dict()
+    give it back with every value resolved. A bad key or value raises CaseError
+    with the key and why in its message.
+    """
+
+    def __init__(self, text, source, overrides, validated):
+        self._text = text  # the TOML text the case starts from ("" for a dict)
+        self._source = source
+        self._overrides = list(overrides)
+        self._case = validated  # _core.Case
+
+    @classmethod
+    def from_toml(cls, path):
+        """The case file at `path`, as `stickslip run` reads it."""
+        path = Path(path)
+        try:
+            text = path.read_text()
+        except (OSError, UnicodeDecodeError):
+            text = None  # the C++ reader reports it, with the command line's words
+        validated = _core.read_case(path, [])
+        return cls(text, path, [], validated)
+
+    @classmethod
+    def from_dict(cls, sections):
+        """A case from {"section": {"key": value}} and/or {"section.key": value};
+        what it leaves out has its default (MODEL.md §10)."""
+        overrides = _overrides(sections)
+        return cls("", Path("<dict>"), overrides, _core.parse_case("", Path("<dict>"), overrides))
+
+    def replace(self, changes):
+        """A copy with `changes` ({"drive.velocity": 3e-4}, or by section) applied,
+        validated again: the same as --set on the command line."""
+        overrides = self._overrides + _overrides(changes)
+        if self._text is None:
+            validated = _core.read_case(self._source, overrides)
+        else:
+            validated = _core.parse_case(self._text, self._source, overrides)
+        return Case(self._text, self._source, overrides, validated)
+
+    @property
+    def source(self):
+        """The case file it was read from (Path("<dict>") for a dict)."""
+        return self._source
+
+    def to_dict(self):
+        """Every section and key, defaults filled in (summary.json's "case" without "source")."""
+        resolved = json.loads(self._case.to_json())
+        resolved.pop("source", None)
+        return resolved
+
+    def to_toml(self):
+        """The case as a TOML case file, every value resolved: reading it back gives this case."""
+        lines = [f"# stickslip case (from {self._source})"]
+        for section, keys in self.to_dict().items():
+            lines.append(f"\n[{section}]")
+            for key, value in keys.items():
+                if section == "output" and key == "dir" and not value:
+                    continue  # unset: out/<case name>
+                if section == "solver" and key == "audit_bound" and value == 0:
+                    continue  # unset (100 × rtol); a case file may not say 0
+                if section == "interface" and key == "contacts":
+                    if not value:
+                        continue  # random placement
+                    lines.append("contacts = [")
+                    lines.extend(f"  {toml_value(c, 'interface.contacts')}," for c in value)
+                    lines.append("]")
+                    continue
+                lines.append(f"{key} = {toml_value(value, f'{section}.{key}')}")
+        return "\n".join(lines) + "\n"
+
+    def __eq__(self, other):
+        return isinstance(other, Case) and self.to_dict() == other.to_dict()
+
+    def __repr__(self):
+        d = self.to_dict()
+        lattice, solver = d["lattice"], d["solver"]
+        return (
+            f"Case({str(self._source)!r}: {lattice['nx']}x{lattice['ny']}x{lattice['nz']}, "
+            f"coverage {d['interface']['coverage']}, v {d['drive']['velocity']} m/s, "
+            f"t_end {d['run']['t_end']} s, {solver['method']} rtol {solver['rtol']})"
+        )

@@ -1,0 +1,185 @@
+"""Runs: one case integrated by the C++ library, and a run's outputs as numpy arrays."""
+
+import json
+import shutil
+import tempfile
+import threading
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import _core
+from ._case import Case
+from ._core import OutputError
+
+
+@dataclass(frozen=True)
+class Friction:
+    """friction.csv: the friction force at the output times."""
+
+    t: np.ndarray  # [s]
+    F_f: np.ndarray  # [N]
+    mu_inst: np.ndarray  # F_f / F_N
+
+
+@dataclass(frozen=True)
+class Traces:
+    """traces.csv: in-plane velocities of the traced contacts, [time × contact]."""
+
+    t: np.ndarray  # [s], shape (n,)
+    contact: np.ndarray  # contact ids, shape (k,)
+    vx: np.ndarray  # [m/s], shape (n, k)
+    vy: np.ndarray  # [m/s], shape (n, k)
+
+
+@dataclass(frozen=True)
+class Events:
+    """events.csv: every stick/slip transition of the watched contacts, in time order."""
+
+    t: np.ndarray  # [s]
+    contact: np.ndarray  # contact id
+    kind: np.ndarray  # "slip" or "stick"
+    speed: np.ndarray  # [m/s], the contact's speed at the transition
+    force: np.ndarray  # [N], the contact's force there
+
+
+@dataclass(frozen=True)
+class Contacts:
+    """contacts.csv: where each contact is (a patch's corner) and its v*."""
+
+    id: np.ndarray
+    ix: np.ndarray
+    iy: np.ndarray
+    v_star: np.ndarray  # [m/s]
+
+
+@dataclass(frozen=True)
+class Run:
+    """A run's results. `summary` is summary.json as a dict (None while a run
+    is unfinished); `traces` and `events` are None when the case did not ask
+    for them; `tables` holds the other tables it asked for (steps, signals,
+    final_state) as {column: array}; `dir` is where its files are (None for a
+    run made without `out`)."""
+
+    summary: dict | None
+    friction: Friction
+    contacts: Contacts
+    traces: Traces | None = None
+    events: Events | None = None
+    tables: dict = field(default_factory=dict)
+    dir: Path | None = None
+
+    @property
+    def mu(self):
+        """The time-averaged friction coefficient (summary["mu"]); None if unfinished."""
+        return None if self.summary is None else self.summary["mu"]
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGINT (Ctrl-C) or SIGTERM stopped a run at an output time, after its
+    outputs were flushed and, with `out`, a checkpoint written there."""
+
+    def __init__(self, signal, t, out):
+        self.signal, self.t, self.out = signal, t, out
+        if t is None:  # a sweep
+            super().__init__(f"sweep interrupted; points finished so far are in {out}: "
+                             "run the sweep again to continue")
+            return
+        if out is None:
+            where = "no checkpoint kept (the run had no `out`)"
+        else:
+            where = (
+                f"a checkpoint in {out}: continue with stickslip.run(case, out={str(out)!r}, "
+                f"restart=True) or `stickslip run CASE --restart {out}`"
+            )
+        super().__init__(f"interrupted at t = {t:.9g} s; {where}")
+
+
+def _table(dir, name):
+    columns, t, values = _core.read_table(dir, name)
+    return dict(zip(["t", *columns], [t, *values]))
+
+
+def load(dir):
+    """The outputs of the run in `dir` (CSV or run.h5, finished or still
+    running) as a Run. OutputError if `dir` holds no run."""
+    dir = Path(dir)
+    if not _core.has_table(dir, "friction"):
+        raise OutputError(f"{dir}: holds no run (no friction.csv or run.h5)")
+    text = _core.read_summary(dir)
+    summary = None if text is None else json.loads(text)
+    f = _table(dir, "friction")
+    c = dict(_core.read_columns(dir, "contacts"))
+    contacts = Contacts(
+        id=c["id"].astype(np.int64),
+        ix=c["ix"].astype(np.int64),
+        iy=c["iy"].astype(np.int64),
+        v_star=c["v_star"],
+    )
+    traces = None
+    if _core.has_table(dir, "traces"):
+        columns, t, values = _core.read_table(dir, "traces")
+        ids = [int(name[3:]) for name in columns if name.startswith("vx_")]
+        at = {name: i for i, name in enumerate(columns)}
+        traces = Traces(
+            t=t,
+            contact=np.array(ids, dtype=np.int64),
+            vx=np.stack([values[at[f"vx_{i}"]] for i in ids], axis=1) if ids else np.empty((t.size, 0)),
+            vy=np.stack([values[at[f"vy_{i}"]] for i in ids], axis=1) if ids else np.empty((t.size, 0)),
+        )
+    events = None
+    if _core.has_table(dir, "events"):
+        e = _core.read_events(dir)
+        events = Events(
+            t=e["t"], contact=e["contact"], kind=np.array(e["kind"], dtype=str), speed=e["speed"],
+            force=e["force"],
+        )
+    tables = {name: _table(dir, name) for name in ("steps", "signals")
+              if _core.has_table(dir, name)}
+    if _core.has_table(dir, "final_state"):  # a row per lattice node, no time
+        tables["final_state"] = dict(_core.read_columns(dir, "final_state"))
+    return Run(
+        summary=summary,
+        friction=Friction(f["t"], f["F_f"], f["mu_inst"]),
+        contacts=contacts,
+        traces=traces,
+        events=events,
+        tables=tables,
+        dir=dir,
+    )
+
+
+def run(case, out=None, progress=False, overwrite=False, restart=False):
+    """Integrates `case` (a Case, or a case file's path) and returns its Run.
+
+    Without `out` the outputs go to a temporary directory that is removed
+    once they are read (nothing is left on disk; [output] dir is not used).
+    With `out`, its usual outputs are written there as `stickslip run --out`
+    writes them, and stay; `overwrite` replaces an earlier run's results
+    there, and `restart` continues the interrupted run there from its
+    checkpoint. `progress` shows the command line's progress line on stderr
+    (when stderr is a terminal).
+
+    The run releases the GIL. Called from the main thread, Ctrl-C (SIGINT) or
+    SIGTERM stops it at its next output time and raises Interrupted (a
+    KeyboardInterrupt). Raises CaseError or OutputError for bad input,
+    IntegrationError when the integration or its energy audit fails.
+    """
+    if not isinstance(case, Case):
+        case = Case.from_toml(case)
+    handle_signals = threading.current_thread() is threading.main_thread()
+    temporary = out is None
+    if restart and temporary:
+        raise OutputError("restart=True needs `out`: the directory of the interrupted run")
+    dir = Path(tempfile.mkdtemp(prefix="stickslip-run-")) if temporary else Path(out)
+    try:
+        outcome = _core.run(case._case, dir, overwrite, restart, not progress, handle_signals)
+        if not isinstance(outcome, str):
+            _, signal, t = outcome
+            raise Interrupted(signal, t, None if temporary else dir)
+        result = load(dir)
+        return Run(**{**result.__dict__, "dir": None}) if temporary else result
+    finally:
+        if temporary:
+            shutil.rmtree(dir, ignore_errors=True)

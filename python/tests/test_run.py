@@ -1,0 +1,197 @@
+"""Runs from Python: the command line's numbers, as numpy arrays."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import stickslip
+from conftest import EXECUTABLE, PAIR_TOML, cli
+
+
+def test_the_module_and_the_command_line_give_the_same_run_bit_for_bit(pair_file, tmp_path):
+    cli("run", pair_file, "--out", tmp_path / "cli", "--quiet")
+    case = stickslip.Case.from_toml(pair_file)
+    run = stickslip.run(case, out=tmp_path / "py")
+    from_cli = stickslip.load(tmp_path / "cli")
+    assert run.summary["mu"] == from_cli.summary["mu"]
+    assert run.summary["solver_stats"] == from_cli.summary["solver_stats"]
+    assert run.summary["energy_residual"] == from_cli.summary["energy_residual"]
+    for table in ("events.csv", "friction.csv", "traces.csv"):
+        assert (tmp_path / "py" / table).read_bytes() == (tmp_path / "cli" / table).read_bytes()
+    # Without `out` nothing is kept, and the numbers are the same.
+    in_memory = stickslip.run(case)
+    assert in_memory.dir is None
+    assert in_memory.summary["mu"] == from_cli.summary["mu"]
+    assert in_memory.summary["solver_stats"]["steps"] == from_cli.summary["solver_stats"]["steps"]
+    np.testing.assert_array_equal(in_memory.events.t, from_cli.events.t)
+    np.testing.assert_array_equal(in_memory.traces.vx, from_cli.traces.vx)
+
+
+def test_arrays_have_the_documented_shapes_and_units(pair_file):
+    case = stickslip.Case.from_toml(pair_file)
+    run = stickslip.run(case)
+    n = 1001  # t = 0, 1 µs, ..., 1 ms
+    f = run.friction
+    assert f.t.shape == f.F_f.shape == f.mu_inst.shape == (n,)
+    np.testing.assert_allclose(f.t, np.arange(n) * 1e-6, rtol=0, atol=1e-18)  # seconds
+    np.testing.assert_allclose(f.mu_inst, f.F_f / run.summary["F_N"], rtol=1e-9)  # N / N
+    tr = run.traces
+    assert tr.contact.tolist() == run.contacts.id.tolist() == [0, 1]
+    assert tr.vx.shape == tr.vy.shape == (n, 2)
+    np.testing.assert_array_equal(tr.t, f.t)
+    # m/s: contact 0 sticks (|v| far below v* = 4.75e-4 m/s) and slips (far above) in turn.
+    assert np.min(np.abs(tr.vx[:, 0])) < 1e-5 and np.max(tr.vx[:, 0]) > 4.75e-3
+    c = run.contacts
+    assert c.ix.tolist() == [1, 4] and c.iy.tolist() == [2, 2]
+    assert c.v_star.tolist() == [4.75e-4, 2.09e-3]
+    e = run.events
+    assert len(e.t) == len(e.contact) == len(e.kind) == len(e.speed) == len(e.force) >= 4  # both contacts slip and stick once
+    assert np.all(np.diff(e.t) >= 0) and e.t[-1] <= 1e-3
+    for contact in (0, 1):  # each contact's transitions alternate, starting with a slip
+        kinds = e.kind[e.contact == contact].tolist()
+        assert kinds[0] == "slip"
+        assert all(a != b for a, b in zip(kinds, kinds[1:]))
+    # v* sets the slip threshold (κ = 1): a contact's speed at its transitions is v*.
+    for contact, v_star in enumerate(c.v_star):
+        np.testing.assert_allclose(e.speed[e.contact == contact], v_star, rtol=1e-3)
+    assert run.summary["solver"]["method"] == "dirk"
+    assert run.mu == run.summary["mu"] and 0 < run.mu < 20
+
+
+def test_load_reads_csv_and_hdf5_runs_alike(pair_file, tmp_path):
+    case = stickslip.Case.from_toml(pair_file).replace({"output.steps": True})
+    csv = stickslip.run(case, out=tmp_path / "csv")
+    hdf5 = stickslip.run(case.replace({"output.format": "hdf5"}), out=tmp_path / "hdf5")
+    assert (tmp_path / "hdf5" / "run.h5").is_file() and not (tmp_path / "hdf5" / "friction.csv").exists()
+    assert hdf5.summary["mu"] == csv.summary["mu"]
+    # CSV prints 10 significant digits (12 for t, 15 for event times); HDF5 keeps doubles.
+    np.testing.assert_allclose(hdf5.friction.F_f, csv.friction.F_f, rtol=1e-9)
+    np.testing.assert_allclose(hdf5.traces.vx, csv.traces.vx, rtol=1e-9, atol=1e-25)
+    np.testing.assert_array_equal(hdf5.traces.contact, csv.traces.contact)
+    np.testing.assert_allclose(hdf5.events.t, csv.events.t, rtol=1e-14)
+    np.testing.assert_array_equal(hdf5.events.kind, csv.events.kind)
+    np.testing.assert_array_equal(hdf5.contacts.v_star, csv.contacts.v_star)
+    assert set(hdf5.tables) == set(csv.tables) == {"steps"}
+    np.testing.assert_allclose(hdf5.tables["steps"]["h"], csv.tables["steps"]["h"], rtol=1e-9)
+    reloaded = stickslip.load(tmp_path / "hdf5")
+    np.testing.assert_array_equal(reloaded.friction.F_f, hdf5.friction.F_f)
+    with pytest.raises(stickslip.OutputError, match="holds no run"):
+        stickslip.load(tmp_path)
+
+
+def test_bad_output_and_failed_runs_raise_the_command_lines_errors(pair_file, tmp_path):
+    case = stickslip.Case.from_toml(pair_file)
+    stickslip.run(case.replace({"run.t_end": 2e-4, "run.average_from": 1e-4}), out=tmp_path / "r")
+    with pytest.raises(stickslip.OutputError, match="--overwrite"):
+        stickslip.run(case, out=tmp_path / "r")  # it holds results
+    with pytest.raises(stickslip.IntegrationError):
+        stickslip.run(case.replace({"solver.max_steps": 20}))
+
+
+def test_the_run_releases_the_gil(pair_file):
+    case = stickslip.Case.from_toml(pair_file)
+    counted, done = [0], threading.Event()
+
+    def count():
+        while not done.is_set():
+            counted[0] += 1
+
+    counter = threading.Thread(target=count)
+    counter.start()
+    try:
+        before = counted[0]
+        stickslip.run(case)
+        during = counted[0] - before
+    finally:
+        done.set()
+        counter.join()
+    # Held for the whole run, the count would stay put (Python switches threads
+    # only between bytecodes): it runs ~1e7 a second.
+    assert during > 10_000
+
+
+INTERRUPTED_RUN = """
+import json, sys, stickslip
+case = stickslip.Case.from_toml(sys.argv[1])
+try:
+    stickslip.run(case, out=sys.argv[2] if sys.argv[2] != "-" else None)
+except stickslip.Interrupted as stop:
+    print(json.dumps({"t": stop.t, "out": None if stop.out is None else str(stop.out), "text": str(stop)}))
+    sys.exit(3)
+"""
+
+
+def interrupt_python_run(case_file, out, tmp_path, wait_for):
+    """Runs `case_file` through the module in a child Python, SIGINT once `wait_for` exists."""
+    env = {**os.environ, "TMPDIR": str(tmp_path / "tmp")}
+    (tmp_path / "tmp").mkdir(exist_ok=True)
+    child = subprocess.Popen([sys.executable, "-c", INTERRUPTED_RUN, str(case_file), out],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    deadline = time.monotonic() + 60
+    while not wait_for() and child.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.01)
+    child.send_signal(signal.SIGINT)
+    stdout, stderr = child.communicate(timeout=60)
+    assert child.returncode == 3, stderr
+    return stdout
+
+
+# Seconds, not a fraction of one, so that SIGINT lands mid-run: imex at a tight rtol.
+LONG_PAIR = PAIR_TOML.replace("t_end = 1e-3", "t_end = 1.5e-3\ncheckpoint_every = 2e-4") + """
+[solver]
+method = "imex"
+rtol = 1e-7
+atol_displacement = 1e-13
+atol_velocity = 1e-8
+"""
+
+
+def test_ctrl_c_leaves_a_checkpoint_the_command_line_continues(tmp_path):
+    case_file = tmp_path / "long.toml"
+    case_file.write_text(LONG_PAIR)
+    out = tmp_path / "part"
+
+    stopped = json.loads(interrupt_python_run(case_file, str(out), tmp_path,
+                                              lambda: (out / "checkpoint.bin").exists()))
+    assert 0 < stopped["t"] < 1.5e-3
+    assert stopped["out"] == str(out) and "--restart" in stopped["text"]
+    assert not (out / "summary.json").exists()
+    cli("run", case_file, "--restart", out, "--quiet")
+    cli("run", case_file, "--out", tmp_path / "full", "--quiet")
+    part, full = stickslip.load(out), stickslip.load(tmp_path / "full")
+    np.testing.assert_array_equal(part.friction.t, full.friction.t)  # no gap, no duplicate
+    # A restart changes the step sequence: agreement to the tolerance, as in tests/test_restart.cpp.
+    assert abs(part.mu - full.mu) < 1e-5 * abs(full.mu)
+    # And the module runs again after an interrupt, from the main thread.
+    again = stickslip.run(stickslip.Case.from_toml(case_file).replace({"run.t_end": 1e-4, "run.average_from": 5e-5}))
+    assert again.summary is not None
+
+
+def test_ctrl_c_without_out_keeps_nothing(tmp_path):
+    case_file = tmp_path / "long.toml"
+    case_file.write_text(LONG_PAIR)
+    tmp = tmp_path / "tmp"
+
+    def running():
+        return any(tmp.glob("stickslip-run-*/friction.csv"))
+
+    stopped = json.loads(interrupt_python_run(case_file, "-", tmp_path, running))
+    assert stopped["out"] is None and "no checkpoint kept" in stopped["text"]
+    assert list(tmp.iterdir()) == []
+
+
+
+def test_after_a_run_ctrl_c_is_pythons_again(pair_file):
+    stickslip.run(stickslip.Case.from_toml(pair_file).replace({"run.t_end": 1e-4, "run.average_from": 5e-5}))
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    with pytest.raises(KeyboardInterrupt) as caught:
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(1)  # the handler runs at the next bytecode
+    assert not isinstance(caught.value, stickslip.Interrupted)
