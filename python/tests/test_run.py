@@ -195,3 +195,19 @@ def test_after_a_run_ctrl_c_is_pythons_again(pair_file):
         os.kill(os.getpid(), signal.SIGINT)
         time.sleep(1)  # the handler runs at the next bytecode
     assert not isinstance(caught.value, stickslip.Interrupted)
+
+
+def test_runs_in_threads_at_once_give_the_runs_made_one_by_one(pair_file):
+    from concurrent.futures import ThreadPoolExecutor
+
+    base = stickslip.Case.from_toml(pair_file)
+    cases = [base.replace({"drive.velocity": v, "output.format": f})
+             for v, f in [(1e-3, "csv"), (7e-4, "hdf5"), (5e-4, "csv"), (3e-4, "hdf5")]]
+    one_by_one = [stickslip.run(c) for c in cases]
+    with ThreadPoolExecutor(max_workers=4) as pool:  # FFTW's planner and HDF5 shared by all
+        at_once = list(pool.map(stickslip.run, cases))
+    for a, b in zip(one_by_one, at_once):
+        assert a.mu == b.mu
+        assert a.summary["solver_stats"] == b.summary["solver_stats"]
+        np.testing.assert_array_equal(a.events.t, b.events.t)
+        np.testing.assert_array_equal(a.friction.F_f, b.friction.F_f)

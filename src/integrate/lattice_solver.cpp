@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <mutex>
 #include <stdexcept>
 
 namespace stickslip {
@@ -19,6 +20,14 @@ fftw_complex* as_fftw(std::complex<double>* p) {
   return reinterpret_cast<fftw_complex*>(p);
 }
 
+// FFTW's planner (making and destroying plans) is not thread-safe; only
+// executing a plan is. Runs in threads of one process (the Python module
+// releases the GIL) take turns here.
+std::mutex& planner_mutex() {
+  static std::mutex m;
+  return m;
+}
+
 }  // namespace
 
 // FFTW plans, destroyed with the solver. Planned with FFTW_ESTIMATE: the same
@@ -26,6 +35,7 @@ fftw_complex* as_fftw(std::complex<double>* p) {
 struct LatticeSolver::Plans {
   fftw_plan forward = nullptr, backward = nullptr, green = nullptr;
   ~Plans() {
+    const std::lock_guard lock(planner_mutex());
     for (fftw_plan p : {forward, backward, green})
       if (p) fftw_destroy_plan(p);
   }
@@ -43,6 +53,7 @@ LatticeSolver::LatticeSolver(const System& system)
   // The velocity field: index 3 (ix + Nx (iy + Ny iz)) + k; one 2D transform
   // over (iy, ix) per layer and component. Its spectrum: index
   // k + 3 (iz + Nz (kx + nkx iy)).
+  std::unique_lock lock(planner_mutex());
   const fftw_iodim real_dims[2] = {{ny_, 3 * nx_, 3 * nz_ * nkx}, {nx_, 3, 3 * nz_}};
   const fftw_iodim real_many[2] = {{nz_, 3 * nx_ * ny_, 3}, {3, 1, 1}};
   plans_->forward = fftw_plan_guru_dft_r2c(2, real_dims, 2, real_many, real_.data(),
@@ -58,6 +69,7 @@ LatticeSolver::LatticeSolver(const System& system)
   const fftw_iodim green_many[1] = {{4, 1, nx_ * ny_}};
   plans_->green = fftw_plan_guru_dft_c2r(
       2, green_dims, 1, green_many, as_fftw(green_spectrum_.data()), green_.data(), FFTW_ESTIMATE);
+  lock.unlock();
   if (!plans_->forward || !plans_->backward || !plans_->green)
     throw std::runtime_error("FFTW could not plan the lattice transforms");
 
