@@ -21,6 +21,7 @@
 #include "stickslip/case/case.hpp"
 #include "stickslip/case/reader.hpp"
 #include "stickslip/integrate/sundials.hpp"
+#include "stickslip/output/recorder.hpp"
 #include "stickslip/output/summary.hpp"
 #include "stickslip/output/tables.hpp"
 #include "stickslip/output/writers.hpp"
@@ -42,18 +43,7 @@ py::array_t<double> to_array(const std::vector<double>& v) {
   return py::array_t<double>(static_cast<py::ssize_t>(v.size()), v.data());
 }
 
-// A table of a run as (column names without "t", t, values [column × row]).
-py::tuple read_table(const fs::path& dir, const std::string& name) {
-  const TraceTable table = read_run_table(dir, name);
-  py::array_t<double> values({table.columns.size(), table.t.size()});
-  auto out = values.mutable_unchecked<2>();
-  for (std::size_t c = 0; c < table.columns.size(); ++c)
-    for (std::size_t r = 0; r < table.t.size(); ++r)
-      out(static_cast<py::ssize_t>(c), static_cast<py::ssize_t>(r)) = table.values[c][r];
-  return py::make_tuple(table.columns, to_array(table.t), values);
-}
-
-// A table without a time column as [(name, values)].
+// Table `name` of the run in `dir` (either format) as [(column, values)].
 py::list read_columns(const fs::path& dir, const std::string& name) {
   py::list out;
   for (const auto& [column, values] : read_run_columns(dir, name))
@@ -85,11 +75,10 @@ py::dict read_events(const fs::path& dir) {
 }
 
 // Runs the case; returns summary.json's text, or on SIGINT/SIGTERM
-// ("interrupted", signal, t). The GIL is released for the run; with
-// `handle_signals` (the caller is Python's main thread) SIGINT and SIGTERM
-// stop the run at its next output time, as on the command line.
-py::object run(const Case& c, const fs::path& out, bool overwrite, bool restart, bool quiet,
-               bool handle_signals) {
+// ("interrupted", signal, t). The GIL is released for the run. While it goes,
+// SIGINT and SIGTERM stop it at its next output time, as on the command line,
+// and with it every other run of the process (runs in threads).
+py::object run(const Case& c, const fs::path& out, bool overwrite, bool restart, bool quiet) {
   RunOptions options;
   options.out_dir = out;
   options.overwrite = overwrite;
@@ -99,8 +88,7 @@ py::object run(const Case& c, const fs::path& out, bool overwrite, bool restart,
   Summary summary;
   {
     py::gil_scoped_release release;
-    std::optional<ScopedStopHandlers> handlers;
-    if (handle_signals) handlers.emplace();
+    const ScopedStopHandlers handlers;
     try {
       summary = run_case(c, options);
     } catch (const Interrupted& stop) {
@@ -113,10 +101,11 @@ py::object run(const Case& c, const fs::path& out, bool overwrite, bool restart,
 
 // `stickslip sweep` without MPI or shards: this process's points not yet
 // finished, `jobs` at a time, then sweep.csv and sweep_summary.csv. Returns
-// the counts and the signal that stopped it (0 if none).
+// the counts and the signal that stopped it (0 if none; run_sweep handles
+// SIGINT and SIGTERM itself, passing them to its points).
 py::dict sweep(const fs::path& file, const fs::path& out, int jobs,
                const std::vector<std::string>& sets, bool overwrite, bool any_version,
-               const fs::path& executable, bool handle_signals, bool progress) {
+               const fs::path& executable, bool progress) {
   const Sweep s = read_sweep(file, sets);
   const auto points = sweep_points(s);
   SweepOptions options;
@@ -135,8 +124,6 @@ py::dict sweep(const fs::path& file, const fs::path& out, int jobs,
   std::size_t finished = 0;
   {
     py::gil_scoped_release release;
-    std::optional<ScopedStopHandlers> handlers;
-    if (handle_signals) handlers.emplace();
     std::ostream silent(nullptr);  // a stream without a buffer writes nothing
     outcome = run_sweep(s, points, options, progress ? std::cout : silent);
     std::cout.flush();
@@ -196,16 +183,16 @@ PYBIND11_MODULE(_core, m) {
         return parse_case(text, source, overrides, kDictOrigin);
       },
       py::arg("text"), py::arg("source"), py::arg("overrides"));
+  m.def("to_toml", [](const Case& c) { return to_toml(c); });
+  m.def("recorder_tables", &recorder_tables);
   m.def("case_key_problem", [](const std::string& key) { return case_key_problem(key); });
 
   m.def("run", &run, py::arg("case"), py::arg("out"), py::arg("overwrite"), py::arg("restart"),
-        py::arg("quiet"), py::arg("handle_signals"));
+        py::arg("quiet"));
   m.def("sweep", &sweep, py::arg("file"), py::arg("out"), py::arg("jobs"), py::arg("sets"),
-        py::arg("overwrite"), py::arg("any_version"), py::arg("executable"),
-        py::arg("handle_signals"), py::arg("progress"));
+        py::arg("overwrite"), py::arg("any_version"), py::arg("executable"), py::arg("progress"));
 
   m.def("has_table", &has_run_table, py::arg("dir"), py::arg("name"));
-  m.def("read_table", &read_table, py::arg("dir"), py::arg("name"));
   m.def("read_columns", &read_columns, py::arg("dir"), py::arg("name"));
   m.def("read_events", &read_events, py::arg("dir"));
   m.def(

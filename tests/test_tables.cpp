@@ -192,6 +192,22 @@ TEST_CASE("a run's table that cannot be read back is an output error naming the 
   CHECK_THROWS_AS(read_run_events(tmp.path), OutputError);
 }
 
+TEST_CASE("a row a running run is still writing is left out; a malformed whole row is not",
+          "[tables]") {
+  const test::TempDir tmp("stickslip_test_tables_running");
+  // The writer ends every row with a newline; the last line has none while it is written.
+  std::ofstream(tmp.path / "friction.csv") << "t,F_f,mu_inst\n0,0,0\n1e-06,1,2\n2e-06,1.5";
+  const TraceTable table = read_run_table(tmp.path, "friction");
+  CHECK(table.t == std::vector<double>{0, 1e-06});
+  const NamedColumns columns = read_run_columns(tmp.path, "friction");
+  REQUIRE(columns.size() == 3);
+  CHECK(columns[0].first == "t");
+  CHECK(columns[2].second == std::vector<double>{0, 2});
+  std::ofstream(tmp.path / "friction.csv") << "t,F_f,mu_inst\n0,0,0\n1e-06,1,2\n2e-06,1.5\n";
+  CHECK_THROWS_WITH(read_run_table(tmp.path, "friction"),
+                    Catch::Contains("line 4: 2 fields, header has 3"));
+}
+
 TEST_CASE("a resumed table that does not exist is an output error naming it", "[tables]") {
   for (const OutputFormat format : {OutputFormat::csv, OutputFormat::hdf5}) {
     const test::TempDir tmp(std::string("stickslip_test_tables_missing_") + to_string(format));

@@ -14,6 +14,10 @@ _BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
 
 def toml_value(value, key):
     """`value` as TOML text (what --set takes); CaseError naming `key` if it has no TOML form."""
+    if hasattr(value, "dtype") and getattr(value, "ndim", None) == 0:  # a numpy scalar
+        if value.dtype.kind == "f" and value.dtype.itemsize < 8:
+            return toml_value(float(str(value)), key)  # float32(3e-4) means 3e-4, not 3.0000001e-4
+        value = value.item()
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, numbers.Integral):
@@ -33,12 +37,18 @@ def toml_value(value, key):
             name = str(k) if _BARE_KEY.match(str(k)) else json.dumps(str(k))
             items.append(f"{name} = {toml_value(v, f'{key}.{k}')}")
         return "{" + ", ".join(items) + "}"
-    if isinstance(value, (list, tuple)) or hasattr(value, "tolist"):
-        items = value.tolist() if hasattr(value, "tolist") else value
-        if not isinstance(items, list):  # a numpy scalar
-            return toml_value(items, key)
+    if isinstance(value, (list, tuple)) or hasattr(value, "tolist"):  # numpy arrays too
+        items = value.tolist() if hasattr(value, "tolist") else list(value)
         return "[" + ", ".join(toml_value(v, key) for v in items) + "]"
     raise CaseError(f"{key}: {type(value).__name__} is not a case value ({value!r})")
+
+
+def _override(dotted, value):
+    """"section.key=value", the key checked first (so that no text of it can change the value)."""
+    problem = _core.case_key_problem(dotted)
+    if problem:
+        raise CaseError(f"{dotted}: {problem}")
+    return f"{dotted}={toml_value(value, dotted)}"
 
 
 def _overrides(changes):
@@ -49,10 +59,11 @@ def _overrides(changes):
     for name, value in changes.items():
         name = str(name)
         if "." in name:
-            overrides.append(f"{name}={toml_value(value, name)}")
+            overrides.append(_override(name, value))
         elif isinstance(value, dict):
-            for key, v in value.items():
-                overrides.append(f"{name}.{key}={toml_value(v, f'{name}.{key}')}")
+            overrides.extend(_override(f"{name}.{key}", v) for key, v in value.items())
+        elif not _BARE_KEY.match(name):
+            raise CaseError(f"{name!r}: expected a section or section.key")
         else:
             problem = _core.case_key_problem(name + ".x")
             if problem.startswith("unknown key"):  # `name` is a section
@@ -71,7 +82,7 @@ class Case:
     """
 
     def __init__(self, text, source, overrides, validated):
-        self._text = text  # the TOML text the case starts from ("" for a dict)
+        self._text = text  # the TOML text the case starts from ("" for a dict; None: reread the file)
         self._source = source
         self._overrides = list(overrides)
         self._case = validated  # _core.Case
@@ -81,11 +92,10 @@ class Case:
         """The case file at `path`, as `stickslip run` reads it."""
         path = Path(path)
         try:
-            text = path.read_text()
-        except (OSError, UnicodeDecodeError):
-            text = None  # the C++ reader reports it, with the command line's words
-        validated = _core.read_case(path, [])
-        return cls(text, path, [], validated)
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):  # the C++ reader says why, in the command line's words
+            return cls(None, path, [], _core.read_case(path, []))
+        return cls(text, path, [], _core.parse_case(text, path, []))
 
     @classmethod
     def from_dict(cls, sections):
@@ -117,23 +127,10 @@ class Case:
 
     def to_toml(self):
         """The case as a TOML case file, every value resolved: reading it back gives this case."""
-        lines = [f"# stickslip case (from {self._source})"]
-        for section, keys in self.to_dict().items():
-            lines.append(f"\n[{section}]")
-            for key, value in keys.items():
-                if section == "output" and key == "dir" and not value:
-                    continue  # unset: out/<case name>
-                if section == "solver" and key == "audit_bound" and value == 0:
-                    continue  # unset (100 × rtol); a case file may not say 0
-                if section == "interface" and key == "contacts":
-                    if not value:
-                        continue  # random placement
-                    lines.append("contacts = [")
-                    lines.extend(f"  {toml_value(c, 'interface.contacts')}," for c in value)
-                    lines.append("]")
-                    continue
-                lines.append(f"{key} = {toml_value(value, f'{section}.{key}')}")
-        return "\n".join(lines) + "\n"
+        return _core.to_toml(self._case)
+
+    def __reduce__(self):  # pickled as its recipe, validated again when unpickled
+        return (_restore, (self._text, str(self._source), self._overrides))
 
     def __eq__(self, other):
         return isinstance(other, Case) and self.to_dict() == other.to_dict()
@@ -146,3 +143,10 @@ class Case:
             f"coverage {d['interface']['coverage']}, v {d['drive']['velocity']} m/s, "
             f"t_end {d['run']['t_end']} s, {solver['method']} rtol {solver['rtol']})"
         )
+
+
+def _restore(text, source, overrides):
+    source = Path(source)
+    if text is None:
+        return Case(None, source, overrides, _core.read_case(source, overrides))
+    return Case(text, source, overrides, _core.parse_case(text, source, overrides))

@@ -3,7 +3,6 @@
 import json
 import shutil
 import tempfile
-import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -95,10 +94,8 @@ class Interrupted(KeyboardInterrupt):
             )
         super().__init__(f"interrupted at t = {t:.9g} s; {where}")
 
-
-def _table(dir, name):
-    columns, t, values = _core.read_table(dir, name)
-    return dict(zip(["t", *columns], [t, *values]))
+    def __reduce__(self):  # so that it crosses a process pool
+        return (Interrupted, (self.signal, self.t, self.out))
 
 
 def load(dir):
@@ -109,7 +106,7 @@ def load(dir):
         raise OutputError(f"{dir}: holds no run (no friction.csv or run.h5)")
     text = _core.read_summary(dir)
     summary = None if text is None else json.loads(text)
-    f = _table(dir, "friction")
+    f = dict(_core.read_columns(dir, "friction"))
     c = dict(_core.read_columns(dir, "contacts"))
     contacts = Contacts(
         id=c["id"].astype(np.int64),
@@ -119,14 +116,14 @@ def load(dir):
     )
     traces = None
     if _core.has_table(dir, "traces"):
-        columns, t, values = _core.read_table(dir, "traces")
+        columns = dict(_core.read_columns(dir, "traces"))  # t, vx_<id>, vy_<id>, ...
         ids = [int(name[3:]) for name in columns if name.startswith("vx_")]
-        at = {name: i for i, name in enumerate(columns)}
+        t = columns["t"]
         traces = Traces(
             t=t,
             contact=np.array(ids, dtype=np.int64),
-            vx=np.stack([values[at[f"vx_{i}"]] for i in ids], axis=1) if ids else np.empty((t.size, 0)),
-            vy=np.stack([values[at[f"vy_{i}"]] for i in ids], axis=1) if ids else np.empty((t.size, 0)),
+            vx=np.stack([columns[f"vx_{i}"] for i in ids], axis=1) if ids else np.empty((t.size, 0)),
+            vy=np.stack([columns[f"vy_{i}"] for i in ids], axis=1) if ids else np.empty((t.size, 0)),
         )
     events = None
     if _core.has_table(dir, "events"):
@@ -135,10 +132,9 @@ def load(dir):
             t=e["t"], contact=e["contact"], kind=np.array(e["kind"], dtype=str), speed=e["speed"],
             force=e["force"],
         )
-    tables = {name: _table(dir, name) for name in ("steps", "signals")
-              if _core.has_table(dir, name)}
-    if _core.has_table(dir, "final_state"):  # a row per lattice node, no time
-        tables["final_state"] = dict(_core.read_columns(dir, "final_state"))
+    typed = ("friction", "contacts", "traces", "events")
+    tables = {name: dict(_core.read_columns(dir, name)) for name in _core.recorder_tables()
+              if name not in typed and _core.has_table(dir, name)}
     return Run(
         summary=summary,
         friction=Friction(f["t"], f["F_f"], f["mu_inst"]),
@@ -161,20 +157,26 @@ def run(case, out=None, progress=False, overwrite=False, restart=False):
     checkpoint. `progress` shows the command line's progress line on stderr
     (when stderr is a terminal).
 
-    The run releases the GIL. Called from the main thread, Ctrl-C (SIGINT) or
-    SIGTERM stops it at its next output time and raises Interrupted (a
-    KeyboardInterrupt). Raises CaseError or OutputError for bad input,
-    IntegrationError when the integration or its energy audit fails.
+    `case` may also be a dict, as Case.from_dict takes it.
+
+    The run releases the GIL, so runs in threads go side by side. Ctrl-C
+    (SIGINT) or SIGTERM stops every run of the process at its next output
+    time, each raising Interrupted (a KeyboardInterrupt). Raises CaseError or
+    OutputError for bad input, IntegrationError when the integration or its
+    energy audit fails.
     """
-    if not isinstance(case, Case):
+    if isinstance(case, dict):
+        case = Case.from_dict(case)
+    elif isinstance(case, (str, Path)) or hasattr(case, "__fspath__"):
         case = Case.from_toml(case)
-    handle_signals = threading.current_thread() is threading.main_thread()
+    elif not isinstance(case, Case):
+        raise TypeError(f"expected a Case, a case file's path or a dict, got {type(case).__name__}")
     temporary = out is None
     if restart and temporary:
         raise OutputError("restart=True needs `out`: the directory of the interrupted run")
     dir = Path(tempfile.mkdtemp(prefix="stickslip-run-")) if temporary else Path(out)
     try:
-        outcome = _core.run(case._case, dir, overwrite, restart, not progress, handle_signals)
+        outcome = _core.run(case._case, dir, overwrite, restart, not progress)
         if not isinstance(outcome, str):
             _, signal, t = outcome
             raise Interrupted(signal, t, None if temporary else dir)

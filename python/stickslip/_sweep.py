@@ -3,7 +3,7 @@
 import csv
 import os
 import shutil
-import threading
+import numbers
 import warnings
 from pathlib import Path
 
@@ -54,18 +54,21 @@ def _read_csv(path):
     return table
 
 
-def sweep(path, jobs=None, out=None, set=None, overwrite=False, any_version=False, progress=True):
+def sweep(path, jobs=None, out=None, set=None, overwrite=False, any_version=False, progress=False):
     """Runs the sweep file at `path` as `stickslip sweep` does (points already
     finished are kept, each point in its own directory under `out`, default
     out/<sweep name>) and returns sweep.csv: a pandas DataFrame if pandas is
     installed, else a dict of numpy arrays. `jobs`: points run at once (default:
     every core); `set`: {"section.key": value} for every point, like --set.
-    Failed points are in the table with their status, and warned of."""
+    Failed points are in the table with their status, and warned of.
+    `progress`: a line per point on the process's standard output (a
+    terminal's, not a notebook's)."""
+    if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, numbers.Integral) or jobs < 1):
+        raise ValueError(f"jobs: expected a positive integer, got {jobs!r}")
     sets = _overrides(set) if set else []
-    handle_signals = threading.current_thread() is threading.main_thread()
     outcome = _core.sweep(
-        Path(path), Path(out) if out is not None else Path(), jobs or 0, sets, overwrite,
-        any_version, executable(), handle_signals, progress,
+        Path(path), Path(out) if out is not None else Path(), int(jobs or 0), sets, overwrite,
+        any_version, executable(), progress,
     )
     if outcome["interrupted_by"]:
         raise Interrupted(outcome["interrupted_by"], None, Path(outcome["out"]))

@@ -1,5 +1,8 @@
 """Cases from Python: the same schema, defaults and errors as a case file."""
 
+import pickle
+
+import numpy as np
 import pytest
 
 import stickslip
@@ -90,3 +93,35 @@ def test_a_bad_case_file_raises_case_error_with_file_and_line(tmp_path):
         stickslip.Case.from_toml(bad)
     with pytest.raises(stickslip.CaseError, match="cannot read case file"):
         stickslip.Case.from_toml(tmp_path / "missing.toml")
+
+
+def test_tuples_and_numpy_values_are_case_values():
+    case = stickslip.Case.from_dict({
+        "interface": {"contacts": ({"site": (1, 2), "v_star": np.float64(4.75e-4)},
+                                   {"site": np.array([4, 2]), "v_star": np.float32(2.09e-3)})},
+        "lattice": {"nx": np.int64(6), "ny": 6, "nz": 4},
+        "output": {"traces": (0, 1), "steps": np.bool_(True)},
+    })
+    d = case.to_dict()
+    assert d["interface"]["contacts"] == [{"site": [1, 2], "v_star": 4.75e-4},
+                                          {"site": [4, 2], "v_star": 2.09e-3}]  # float32 as written
+    assert d["lattice"]["nx"] == 6 and d["output"]["traces"] == [0, 1] and d["output"]["steps"] is True
+
+
+@pytest.mark.parametrize("changes, message", [
+    ({"": 7}, "'': expected a section or section.key"),
+    ({"lattice.nx=7 ": 6}, "lattice.nx=7 : unknown key 'nx=7 '"),
+    ({"lattice": {"nx = 3, ny": 6}}, "lattice.nx = 3, ny: unknown key"),
+    ("lattice.nx=6", "expected a dict of case keys, got str"),
+])
+def test_key_names_cannot_smuggle_values(changes, message):
+    with pytest.raises(stickslip.CaseError) as caught:
+        stickslip.Case.from_dict(changes)
+    assert message in str(caught.value)
+
+
+def test_a_case_pickles_as_the_same_case(pair_file):
+    for case in (stickslip.Case.from_toml(pair_file).replace({"drive.velocity": 3e-4}),
+                 stickslip.Case.from_dict({"lattice.nx": 6})):
+        back = pickle.loads(pickle.dumps(case))
+        assert back == case and back.source == case.source and back.to_toml() == case.to_toml()

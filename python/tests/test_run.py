@@ -80,8 +80,6 @@ def test_load_reads_csv_and_hdf5_runs_alike(pair_file, tmp_path):
     np.testing.assert_array_equal(hdf5.contacts.v_star, csv.contacts.v_star)
     assert set(hdf5.tables) == set(csv.tables) == {"steps"}
     np.testing.assert_allclose(hdf5.tables["steps"]["h"], csv.tables["steps"]["h"], rtol=1e-9)
-    reloaded = stickslip.load(tmp_path / "hdf5")
-    np.testing.assert_array_equal(reloaded.friction.F_f, hdf5.friction.F_f)
     with pytest.raises(stickslip.OutputError, match="holds no run"):
         stickslip.load(tmp_path)
 
@@ -89,7 +87,7 @@ def test_load_reads_csv_and_hdf5_runs_alike(pair_file, tmp_path):
 def test_bad_output_and_failed_runs_raise_the_command_lines_errors(pair_file, tmp_path):
     case = stickslip.Case.from_toml(pair_file)
     stickslip.run(case.replace({"run.t_end": 2e-4, "run.average_from": 1e-4}), out=tmp_path / "r")
-    with pytest.raises(stickslip.OutputError, match="--overwrite"):
+    with pytest.raises(stickslip.OutputError, match=r"overwrite=True"):
         stickslip.run(case, out=tmp_path / "r")  # it holds results
     with pytest.raises(stickslip.IntegrationError):
         stickslip.run(case.replace({"solver.max_steps": 20}))
@@ -190,14 +188,13 @@ def test_ctrl_c_without_out_keeps_nothing(tmp_path):
 
 def test_after_a_run_ctrl_c_is_pythons_again(pair_file):
     stickslip.run(stickslip.Case.from_toml(pair_file).replace({"run.t_end": 1e-4, "run.average_from": 5e-5}))
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
     with pytest.raises(KeyboardInterrupt) as caught:
         os.kill(os.getpid(), signal.SIGINT)
         time.sleep(1)  # the handler runs at the next bytecode
     assert not isinstance(caught.value, stickslip.Interrupted)
 
 
-def test_runs_in_threads_at_once_give_the_runs_made_one_by_one(pair_file):
+def test_runs_in_threads_at_once_give_the_runs_made_one_by_one(pair_file, capfd):
     from concurrent.futures import ThreadPoolExecutor
 
     base = stickslip.Case.from_toml(pair_file)
@@ -211,3 +208,82 @@ def test_runs_in_threads_at_once_give_the_runs_made_one_by_one(pair_file):
         assert a.summary["solver_stats"] == b.summary["solver_stats"]
         np.testing.assert_array_equal(a.events.t, b.events.t)
         np.testing.assert_array_equal(a.friction.F_f, b.friction.F_f)
+    assert "HDF5" not in capfd.readouterr().err  # HDF5 silenced in every thread
+
+
+def test_load_reads_a_running_run_up_to_its_last_whole_row(pair_file, tmp_path):
+    stickslip.run(stickslip.Case.from_toml(pair_file), out=tmp_path / "done")
+    running = tmp_path / "running"
+    running.mkdir()
+    for name in ("contacts.csv", "traces.csv", "events.csv"):
+        (running / name).write_bytes((tmp_path / "done" / name).read_bytes())
+    rows = (tmp_path / "done" / "friction.csv").read_text().splitlines(keepends=True)
+    (running / "friction.csv").write_text("".join(rows[:501]) + rows[501][:9])  # a row being written
+    run = stickslip.load(running)
+    assert run.summary is None and run.mu is None
+    assert run.friction.t.shape == (500,)
+    np.testing.assert_array_equal(run.friction.F_f, stickslip.load(tmp_path / "done").friction.F_f[:500])
+
+
+def test_runs_pickle_for_process_pools(pair_file):
+    import pickle
+
+    run = stickslip.run(stickslip.Case.from_toml(pair_file).replace({"run.t_end": 4e-4, "run.average_from": 1e-4}))
+    back = pickle.loads(pickle.dumps(run))
+    assert back.mu == run.mu
+    np.testing.assert_array_equal(back.traces.vx, run.traces.vx)
+    stop = pickle.loads(pickle.dumps(stickslip.Interrupted(2, 1e-4, None)))
+    assert isinstance(stop, KeyboardInterrupt) and stop.t == 1e-4 and str(stop).startswith("interrupted at")
+
+
+THREADED_RUNS = """
+import sys, threading, stickslip
+from concurrent.futures import ThreadPoolExecutor
+case = stickslip.Case.from_toml(sys.argv[1])
+outcome = {}
+def worker():
+    try:
+        stickslip.run(case)
+        outcome["worker"] = "finished"
+    except stickslip.Interrupted:
+        outcome["worker"] = "interrupted"
+if sys.argv[2] == "main-and-worker":
+    thread = threading.Thread(target=worker)
+    thread.start()
+    try:
+        stickslip.run(case)
+        outcome["main"] = "finished"
+    except stickslip.Interrupted:
+        outcome["main"] = "interrupted"
+    thread.join()
+else:  # a pool, the main thread waiting on it
+    try:
+        with ThreadPoolExecutor(2) as pool:
+            list(pool.map(stickslip.run, [case, case]))
+        outcome["pool"] = "finished"
+    except stickslip.Interrupted:
+        outcome["pool"] = "interrupted"
+print(sorted(outcome.items()))
+"""
+
+
+@pytest.mark.parametrize("layout, expected", [
+    ("main-and-worker", "[('main', 'interrupted'), ('worker', 'interrupted')]"),
+    ("pool", "[('pool', 'interrupted')]"),
+])
+def test_ctrl_c_stops_every_run_of_the_process(layout, expected, tmp_path):
+    case_file = tmp_path / "long.toml"
+    case_file.write_text(LONG_PAIR)
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    env = {**os.environ, "TMPDIR": str(tmp)}
+    child = subprocess.Popen([sys.executable, "-c", THREADED_RUNS, str(case_file), layout],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    deadline = time.monotonic() + 60
+    while len(list(tmp.glob("stickslip-run-*/friction.csv"))) < 2 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    child.send_signal(signal.SIGINT)
+    stdout, stderr = child.communicate(timeout=60)
+    assert child.returncode == 0, stderr
+    assert stdout.strip() == expected
+    assert list(tmp.iterdir()) == []  # both temporary directories removed

@@ -42,7 +42,8 @@ std::vector<std::string_view> split(std::string_view line) {
 
 // A CSV file as a header and rows of fields, with the line number of each row
 // for messages. Blank lines are skipped; every row must have the header's
-// number of fields.
+// number of fields. A last line without its newline is a row a running run
+// is still writing (the writers end every row with one): it is left out.
 struct Csv {
   std::vector<std::string> header;
   std::vector<std::vector<std::string>> rows;
@@ -59,6 +60,7 @@ Csv read_csv(const fs::path& file) {
   long number = 0;
   while (std::getline(in, line)) {
     ++number;
+    if (in.eof() && !csv.header.empty()) break;  // no newline: still being written
     if (trim(line).empty()) continue;
     const auto fields = split(line);
     if (csv.header.empty()) {

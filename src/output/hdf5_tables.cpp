@@ -47,9 +47,11 @@ class Handle {
 };
 
 // HDF5 prints its own error stack unless told not to; the errors thrown here
-// say what failed, with HDF5's innermost reason (why_hdf5).
+// say what failed, with HDF5's innermost reason (why_hdf5). Debian's HDF5 is
+// built thread-safe, which keeps this setting per thread: once per thread
+// (runs in threads of one process, from the Python module).
 void silence_hdf5() {
-  static const bool once = [] { return H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr) >= 0; }();
+  thread_local const bool once = [] { return H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr) >= 0; }();
   (void)once;
 }
 

@@ -365,9 +365,15 @@ std::vector<std::unique_ptr<Recorder>> make_recorders(const RecorderSetup& setup
   return recorders;
 }
 
+std::vector<std::string> recorder_tables() {
+  std::vector<std::string> tables;
+  for (const auto& kind : kRecorders) tables.emplace_back(kind.table);
+  return tables;
+}
+
 std::vector<std::string> recorder_files() {
   std::vector<std::string> files{kHdf5File};
-  for (const auto& kind : kRecorders) files.push_back(std::string(kind.table) + ".csv");
+  for (const auto& table : recorder_tables()) files.push_back(table + ".csv");
   return files;
 }
 

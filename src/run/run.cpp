@@ -1,5 +1,6 @@
 #include "stickslip/run/run.hpp"
 
+#include <signal.h>
 #include <sundials/sundials_config.h>
 #include <unistd.h>
 
@@ -10,6 +11,7 @@
 #include <cstdio>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <optional>
 
 #include "stickslip/analysis/events.hpp"
@@ -82,18 +84,38 @@ void install_stop_handlers() {
   std::signal(SIGTERM, request_stop);
 }
 
+namespace {
+// The scopes alive, and the handlers the first of them replaced.
+struct StopScopes {
+  std::mutex mutex;
+  int alive = 0;
+  struct sigaction previous_int {};
+  struct sigaction previous_term {};
+};
+StopScopes& stop_scopes() {
+  static StopScopes scopes;
+  return scopes;
+}
+}  // namespace
+
 ScopedStopHandlers::ScopedStopHandlers() {
+  StopScopes& s = stop_scopes();
+  const std::lock_guard lock(s.mutex);
+  if (s.alive++ > 0) return;
   g_stop_signal = 0;
   struct sigaction stop {};
   stop.sa_handler = request_stop;
   sigemptyset(&stop.sa_mask);
-  sigaction(SIGINT, &stop, &previous_int_);
-  sigaction(SIGTERM, &stop, &previous_term_);
+  sigaction(SIGINT, &stop, &s.previous_int);
+  sigaction(SIGTERM, &stop, &s.previous_term);
 }
 
 ScopedStopHandlers::~ScopedStopHandlers() {
-  sigaction(SIGINT, &previous_int_, nullptr);
-  sigaction(SIGTERM, &previous_term_, nullptr);
+  StopScopes& s = stop_scopes();
+  const std::lock_guard lock(s.mutex);
+  if (--s.alive > 0) return;
+  sigaction(SIGINT, &s.previous_int, nullptr);
+  sigaction(SIGTERM, &s.previous_term, nullptr);
   g_stop_signal = 0;
 }
 

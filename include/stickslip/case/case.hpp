@@ -128,6 +128,10 @@ struct Case {
 
 // The case as resolved (every parameter, defaults filled in), for summary.json.
 nlohmann::json to_json(const Case& c);
+// The same as the text of a case file, which reads back as this case (values
+// that mean "unset", such as an empty output.dir, are left out; output.dir is
+// made absolute, so the text may be saved anywhere).
+std::string to_toml(const Case& c);
 
 const char* to_string(GradDiv);
 const char* to_string(InitialState);

@@ -64,6 +64,9 @@ std::vector<int> selected_contacts(ContactSelection which, const std::vector<int
 // cannot be opened.
 std::vector<std::unique_ptr<Recorder>> make_recorders(const RecorderSetup& setup);
 
+// The name of every table a recorder may write (friction, traces, ...).
+std::vector<std::string> recorder_tables();
+
 // Every file a recorder may write, whatever the case asks for and in either
 // format: a directory holding one holds results, and --overwrite removes them
 // all (no stale traces.csv from an earlier run that traced).

@@ -2,8 +2,6 @@
 // One run of a case: builds the System, integrates it, and streams the
 // observables to the output directory (the Monitor of STYLE.md).
 
-#include <signal.h>
-
 #include <filesystem>
 
 #include "stickslip/case/case.hpp"
@@ -31,18 +29,16 @@ struct Interrupted {
 void install_stop_handlers();
 
 // The same for the span of one run in a program that has handlers of its own
-// (the Python module): it clears an earlier stop request, and puts back the
-// handlers it replaced when it goes out of scope.
+// (the Python module), whose runs may go on in several threads at once. While
+// any of these lives, SIGINT and SIGTERM stop every run in the process; the
+// first to be made clears an earlier stop request and replaces the handlers,
+// the last to go puts them back.
 class ScopedStopHandlers {
  public:
   ScopedStopHandlers();
   ~ScopedStopHandlers();
   ScopedStopHandlers(const ScopedStopHandlers&) = delete;
   ScopedStopHandlers& operator=(const ScopedStopHandlers&) = delete;
-
- private:
-  struct sigaction previous_int_ {};
-  struct sigaction previous_term_ {};
 };
 
 // The output directory of a case: --out if given, else [output] dir, else
