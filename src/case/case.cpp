@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <nlohmann/json.hpp>
 
+#include "stickslip/case/methods.hpp"
+
 namespace stickslip {
 
 const char* to_string(GradDiv g) {
@@ -36,21 +38,8 @@ const char* to_string(OutputFormat f) {
 }
 
 const char* to_string(Method m) {
-  switch (m) {
-    case Method::imex:
-      return "imex";
-    case Method::dirk:
-      return "dirk";
-    case Method::bdf:
-      return "bdf";
-    case Method::erk:
-      return "erk";
-    case Method::rk4:
-      return "rk4";
-    case Method::automatic:
-      return "auto";
-  }
-  return "?";
+  if (m == Method::automatic) return "auto";
+  return method_info(m).name;
 }
 
 const char* to_string(LinearSolver s) {

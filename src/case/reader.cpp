@@ -26,6 +26,7 @@
 #include <sstream>
 #include <utility>
 
+#include "stickslip/case/methods.hpp"
 #include "stickslip/model/contacts.hpp"
 #include "toml_text.hpp"
 
@@ -154,6 +155,24 @@ Apply choice(S Case::*s, E S::*m, Es... options) {
   };
 }
 
+// [solver] method: "auto", or a row of the method table (case/methods.hpp).
+void read_method(Reader& r, const toml::node& n, const std::string& key, Case& c) {
+  const std::string& word = r.string(n, key);
+  std::string names = "\"auto\"";
+  if (word == "auto") {
+    c.solver.method = Method::automatic;
+    return;
+  }
+  for (const MethodInfo& m : methods()) {
+    if (word == m.name) {
+      c.solver.method = m.method;
+      return;
+    }
+    names += ", \"" + std::string(m.name) + "\"";
+  }
+  r.fail(n, key, "must be one of " + names + ", got \"" + printable(word) + "\"");
+}
+
 void read_dir(Reader& r, const toml::node& n, const std::string& key, Case& c) {
   const std::string& s = r.string(n, key);
   if (s.empty()) r.fail(n, key, "must not be empty (leave it out for out/<case name>)");
@@ -280,9 +299,7 @@ const std::vector<Entry>& schema() {
       {"run", "initial",
        choice(&Case::run, &RunParams::initial, InitialState::rest, InitialState::sliding)},
       {"run", "checkpoint_every", real(&Case::run, &RunParams::checkpoint_every, kNonNegative)},
-      {"solver", "method",
-       choice(&Case::solver, &SolverParams::method, Method::automatic, Method::imex, Method::dirk,
-              Method::bdf, Method::erk, Method::rk4)},
+      {"solver", "method", read_method},
       {"solver", "linear_solver",
        choice(&Case::solver, &SolverParams::linear_solver, LinearSolver::automatic,
               LinearSolver::fft, LinearSolver::klu)},
@@ -484,31 +501,31 @@ void check_consistency(const Reader& r, const Case& c) {
   check_ids(c.output.trace_ids, r.trace_ids, "output.traces");
   check_ids(c.output.event_ids, r.event_ids, "output.events");
 
-  SolverParams s = c.solver;
-  s.method = validated_as(s.method);  // "auto" allows what both its choices allow
-  if (s.method == Method::rk4 && !(s.step > 0))
-    r.fail_first({{"solver.step", "must be > 0 with method = \"rk4\" (a fixed-step method)"},
-                  {"solver.method", "\"rk4\" is fixed-step: it needs [solver] step > 0"}});
-  if (s.method == Method::bdf && s.step > 0)
-    r.fail_first({{"solver.step", "must be 0 with method = \"bdf\" (CVODE has no fixed step)"},
-                  {"solver.method", "\"bdf\" is adaptive only: leave [solver] step out"}});
-  if (s.linear_solver != LinearSolver::automatic && s.method != Method::dirk &&
-      s.method != Method::bdf)
-    r.fail_first({{"solver.linear_solver", "applies to method = \"dirk\" or \"bdf\" only, not \"" +
-                                               std::string(to_string(s.method)) + "\""},
-                  {"solver.method", "solves no linear systems: leave [solver] linear_solver out"}});
-  // Orders SUNDIALS 6.4 offers: ARKStep IMEX 3–5, DIRK 2–5, ERK 2–8; CVODE BDF 1–5; rk4 is 4.
-  const int max_order = s.method == Method::erk ? 8 : s.method == Method::rk4 ? 4 : 5;
-  const int min_order = s.method == Method::bdf    ? 1
-                        : s.method == Method::imex ? 3
-                        : s.method == Method::rk4  ? 4
-                                                   : 2;
-  if (s.order != 0 && (s.order < min_order || s.order > max_order))
+  // The method's row (case/methods.hpp); "auto" allows what both its choices allow.
+  const MethodInfo& m = method_info(validated_as(c.solver.method));
+  const SolverParams& s = c.solver;
+  const std::string name = "\"" + std::string(to_string(s.method)) + "\"";
+  if (!m.error_estimate && !(s.step > 0))
+    r.fail_first({{"solver.step", "must be > 0 with method = " + name + " (a fixed-step method)"},
+                  {"solver.method", name + " is fixed-step: it needs [solver] step > 0"}});
+  if (!m.fixed_step && s.step > 0)
+    r.fail_first({{"solver.step", "must be 0 with method = " + name + " (it has no fixed step)"},
+                  {"solver.method", name + " is adaptive only: leave [solver] step out"}});
+  if (s.linear_solver != LinearSolver::automatic && !m.whole_implicit) {
+    std::string implicit_methods;  // "\"dirk\" or \"bdf\""
+    for (const MethodInfo& other : methods())
+      if (other.whole_implicit)
+        implicit_methods +=
+            (implicit_methods.empty() ? "\"" : " or \"") + std::string(other.name) + "\"";
     r.fail_first(
-        {{"solver.order", "must be 0 (default) or in [" + std::to_string(min_order) + ", " +
-                              std::to_string(max_order) + "] for method = \"" +
-                              to_string(c.solver.method) + "\", got " + std::to_string(s.order)},
-         {"solver.method", "does not offer order " + std::to_string(s.order)}});
+        {{"solver.linear_solver", "applies to method = " + implicit_methods + " only, not " + name},
+         {"solver.method", "solves no linear systems: leave [solver] linear_solver out"}});
+  }
+  if (s.order != 0 && (s.order < m.min_order || s.order > m.max_order))
+    r.fail_first({{"solver.order", "must be 0 (default) or in [" + std::to_string(m.min_order) +
+                                       ", " + std::to_string(m.max_order) + "] for method = " +
+                                       name + ", got " + std::to_string(s.order)},
+                  {"solver.method", "does not offer order " + std::to_string(s.order)}});
 }
 
 }  // namespace

@@ -2,15 +2,8 @@
 
 #include <arkode/arkode_arkstep.h>
 #include <arkode/arkode_butcher.h>
-#include <sunlinsol/sunlinsol_klu.h>
 
-#include <algorithm>
-#include <cmath>
-#include <functional>
-#include <limits>
-#include <utility>
-
-#include "failure.hpp"
+#include <stdexcept>
 
 namespace stickslip {
 namespace {
@@ -28,17 +21,19 @@ ARKodeButcherTable classic_rk4() {
 // where SUNDIALS 6.4 has them (the default SDIRK_5_3_4 has stage order 1, and
 // RK stages losing order on the stiff contacts is what holds imex's steps
 // down in the creep). Not ESDIRK547L2SA2, broken in 6.4.1.
+// Order 0 is the method's default (case/methods.hpp).
 ARKODE_DIRKTableID dirk_table(int order) {
-  switch (order) {
+  switch (order > 0 ? order : method_info(Method::dirk).default_order) {
     case 2:
       return ARKODE_SDIRK_2_1_2;
     case 3:
       return ARKODE_ESDIRK325L2SA_5_2_3;
+    case 4:
+      return ARKODE_ESDIRK436L2SA_6_3_4;
     case 5:
       return ARKODE_ESDIRK547L2SA_7_4_5;
-    default:
-      return ARKODE_ESDIRK436L2SA_6_3_4;
   }
+  throw std::logic_error("dirk_table: an order the case reader should have refused");
 }
 
 }  // namespace
@@ -46,12 +41,11 @@ ARKODE_DIRKTableID dirk_table(int order) {
 ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& solver,
                                      std::span<const double> y0, double t0, double t_stop,
                                      IntegratorOptions options)
-    : SteppingIntegrator(system, solver, std::move(options), t0, t_stop),
-      setup_(method_setup(solver)) {
+    : SteppingIntegrator(system, solver, std::move(options), t0, t_stop) {
   y_ = make_serial_vector(y0, ctx_);
   // Which parts ARKStep sees: explicit methods all of f explicitly, imex the
   // contact forces implicitly and the rest explicitly, dirk all implicitly.
-  const StageSolve stages = setup_.stages;
+  const StageSolve stages = stages_;
   ARKRhsFn fe = stages == StageSolve::none          ? full_rhs
                 : stages == StageSolve::per_contact ? explicit_rhs
                                                     : nullptr;
@@ -60,14 +54,14 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
                                                     : full_rhs;
   arkode_mem_.reset(ARKStepCreate(fe, fi, t0, y_.get(), ctx_));
   check_created(arkode_mem_.get(), "ARKStepCreate");
-  check(ARKStepSetUserData(arkode_mem_.get(), this), "ARKStepSetUserData");
+  check(ARKStepSetUserData(arkode_mem_.get(), user_data()), "ARKStepSetUserData");
   atol_ = make_serial_vector(absolute_tolerances(system, solver), ctx_);
   check(ARKStepSVtolerances(arkode_mem_.get(), solver.rtol, atol_.get()), "ARKStepSVtolerances");
   check(ARKStepSetStopTime(arkode_mem_.get(), t_stop), "ARKStepSetStopTime");
   check(ARKStepSetErrHandlerFn(arkode_mem_.get(), print_solver_message, nullptr),
         "ARKStepSetErrHandlerFn");
 
-  if (solver.method == Method::rk4) {
+  if (solver.method == Method::rk4) {  // ARKStep has no table of its own for it
     ARKodeButcherTable table = classic_rk4();
     check_created(table, "ARKodeButcherTable_Create");
     const int flag = ARKStepSetTables(arkode_mem_.get(), 4, 0, nullptr, table);
@@ -87,13 +81,7 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
       break;
     case StageSolve::per_contact:
       // Stages solved exactly, contact by contact.
-      stage_solver_ = make_exact_stage_solver(
-          ctx_, StagePackage::arkstep,
-          [&system](double, double gamma, std::span<const double> predictor,
-                    std::span<const double>, std::span<double> z) {
-            return system.solve_implicit_stage(gamma, predictor, z);
-          },
-          stage_stats_, pending_);
+      make_per_contact_stages(StagePackage::arkstep);
       check(ARKStepSetNonlinearSolver(arkode_mem_.get(), stage_solver_.get()),
             "ARKStepSetNonlinearSolver");
       break;
@@ -104,11 +92,7 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
       check(ARKStepSetMaxErrTestFails(arkode_mem_.get(), kMaxErrorTestFailures),
             "ARKStepSetMaxErrTestFails");
       check(ARKStepSetMaxConvFails(arkode_mem_.get(), kMaxStageFailures), "ARKStepSetMaxConvFails");
-      lattice_stages_ = std::make_unique<LatticeStageSolver>(system);
-      stage_solver_ = make_exact_stage_solver(
-          ctx_, StagePackage::arkstep,
-          std::bind_front(&LatticeStageSolver::solve, lattice_stages_.get()), stage_stats_,
-          pending_);
+      make_lattice_stages(StagePackage::arkstep);
       check(ARKStepSetNonlinearSolver(arkode_mem_.get(), stage_solver_.get()),
             "ARKStepSetNonlinearSolver");
       // The stage solve is exact up to 1e-6 of the error weights, so f at the
@@ -119,22 +103,10 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
     case StageSolve::newton_klu:
       // Newton with KLU on I − γ J; ARKStep reuses J and KLU its symbolic
       // factorization (the pattern never changes) across steps.
-      jacobian_ = system.jacobian_pattern(JacobianPart::full);
-      matrix_ = make_sparse_matrix(jacobian_, ctx_);
-      linear_solver_.reset(SUNLinSol_KLU(y_.get(), matrix_.get(), ctx_));
-      check_created(linear_solver_.get(), "SUNLinSol_KLU");
+      make_klu_solver();
       check(ARKStepSetLinearSolver(arkode_mem_.get(), linear_solver_.get(), matrix_.get()),
             "ARKStepSetLinearSolver");
-      check(ARKStepSetJacFn(arkode_mem_.get(),
-                            [](double, N_Vector y, N_Vector, SUNMatrix J, void* self, N_Vector,
-                               N_Vector, N_Vector) {
-                              auto* me = static_cast<ArkStepIntegrator*>(self);
-                              return guarded(me->pending_, [&] {
-                                me->system_.jacobian_values(as_span(y), me->jacobian_);
-                                copy_into(me->jacobian_, J);
-                              });
-                            }),
-            "ARKStepSetJacFn");
+      check(ARKStepSetJacFn(arkode_mem_.get(), jacobian_fn), "ARKStepSetJacFn");
       break;
   }
 
@@ -142,37 +114,10 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
   if (!roots_.empty())
     check(ARKStepRootInit(arkode_mem_.get(), static_cast<int>(roots_.size()), root_fn),
           "ARKStepRootInit");
-  if (options_.on_step) {
-    scratch_error_.reset(N_VClone(y_.get()));
-    scratch_weights_.reset(N_VClone(y_.get()));
-  }
 }
 
 void ArkodeMemDeleter::operator()(void* mem) const {
   ARKStepFree(&mem);
-}
-
-int ArkStepIntegrator::full_rhs(double t, N_Vector y, N_Vector ydot, void* self) {
-  auto* me = static_cast<ArkStepIntegrator*>(self);
-  return guarded(me->pending_, [&] { me->system_.rhs(t, as_span(y), as_span(ydot)); });
-}
-
-int ArkStepIntegrator::explicit_rhs(double t, N_Vector y, N_Vector ydot, void* self) {
-  auto* me = static_cast<ArkStepIntegrator*>(self);
-  return guarded(me->pending_, [&] { me->system_.rhs_explicit(t, as_span(y), as_span(ydot)); });
-}
-
-int ArkStepIntegrator::implicit_rhs(double t, N_Vector y, N_Vector ydot, void* self) {
-  auto* me = static_cast<ArkStepIntegrator*>(self);
-  return guarded(me->pending_, [&] { me->system_.rhs_implicit(t, as_span(y), as_span(ydot)); });
-}
-
-int ArkStepIntegrator::root_fn(double, N_Vector y, double* g, void* self) {
-  auto* me = static_cast<ArkStepIntegrator*>(self);
-  return guarded(me->pending_, [&] {
-    me->system_.stick_slip_roots(as_span(y), me->options_.watched_contacts,
-                                 std::span<double>(g, me->roots_.size()));
-  });
 }
 
 double ArkStepIntegrator::current_time() const {
@@ -202,7 +147,7 @@ int ArkStepIntegrator::evolve(double t_out, double* t, bool one_step) {
                 ARK_ROOT_RETURN == kRoot && ARK_TOO_MUCH_WORK == kTooMuchWork);
   const int flag =
       ARKStepEvolve(arkode_mem_.get(), t_out, y_.get(), t, one_step ? ARK_ONE_STEP : ARK_NORMAL);
-  if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
+  rethrow_pending();
   return flag;
 }
 
@@ -214,20 +159,17 @@ void ArkStepIntegrator::interpolate(double t, N_Vector y) {
   check(ARKStepGetDky(arkode_mem_.get(), t, 0, y), "ARKStepGetDky");
 }
 
-double ArkStepIntegrator::local_error_norm() {
-  if (solver_.method == Method::rk4 ||  // no error estimate
-      ARKStepGetEstLocalErrors(arkode_mem_.get(), scratch_error_.get()) < 0 ||
-      ARKStepGetErrWeights(arkode_mem_.get(), scratch_weights_.get()) < 0)
-    return std::numeric_limits<double>::quiet_NaN();  // rk4 has no error estimate
-  return N_VWrmsNorm(scratch_error_.get(), scratch_weights_.get());
+bool ArkStepIntegrator::local_errors(N_Vector error, N_Vector weights) const {
+  return ARKStepGetEstLocalErrors(arkode_mem_.get(), error) >= 0 &&
+         ARKStepGetErrWeights(arkode_mem_.get(), weights) >= 0;
 }
 
-void ArkStepIntegrator::throw_failure(int flag, double t) {
-  NVectorPtr err(N_VClone(y_.get())), weights(N_VClone(y_.get()));
-  const bool have = ARKStepGetEstLocalErrors(arkode_mem_.get(), err.get()) >= 0 &&
-                    ARKStepGetErrWeights(arkode_mem_.get(), weights.get()) >= 0;
-  throw IntegrationError(describe_failure(system_, "ARKStepEvolve", ARKStepGetReturnFlagName(flag),
-                                          t, err.get(), weights.get(), have));
+const char* ArkStepIntegrator::evolve_name() const {
+  return "ARKStepEvolve";
+}
+
+const char* ArkStepIntegrator::flag_name(int flag) const {
+  return ARKStepGetReturnFlagName(flag);
 }
 
 SolverStats ArkStepIntegrator::stats() const {
@@ -239,22 +181,11 @@ SolverStats ArkStepIntegrator::stats() const {
                              &s.rhs_implicit, &s.linear_setups, &s.error_test_failures);
   ARKStepGetNumStepSolveFails(arkode_mem_.get(), &s.convergence_failures);
   if (!roots_.empty()) ARKStepGetNumGEvals(arkode_mem_.get(), &s.root_evaluations);
-  switch (setup_.stages) {
-    case StageSolve::none:
-      break;
-    case StageSolve::per_contact:
-      s.newton_iterations = stage_stats_.iterations;
-      break;
-    case StageSolve::exact_lattice:
-      s.newton_iterations = stage_stats_.iterations;
-      s.linear_setups = lattice_stages_->lattice().factorizations();
-      s.jacobian_evaluations = lattice_stages_->contact_factorizations();
-      break;
-    case StageSolve::newton_klu:
-      ARKStepGetNumNonlinSolvIters(arkode_mem_.get(), &s.newton_iterations);
-      ARKStepGetNumJacEvals(arkode_mem_.get(), &s.jacobian_evaluations);
-      break;
+  if (stages_ == StageSolve::newton_klu) {
+    ARKStepGetNumNonlinSolvIters(arkode_mem_.get(), &s.newton_iterations);
+    ARKStepGetNumJacEvals(arkode_mem_.get(), &s.jacobian_evaluations);
   }
+  add_stage_stats(s);
   return s;
 }
 
@@ -262,21 +193,11 @@ nlohmann::json ArkStepIntegrator::description() const {
   ARKodeButcherTable bi = nullptr, be = nullptr;
   ARKStepGetCurrentButcherTables(arkode_mem_.get(), &bi, &be);
   const int order = bi ? bi->q : (be ? be->q : 0);
-  nlohmann::json d = {{"method", to_string(solver_.method)},
-                      {"integrator", setup_.integrator},
+  nlohmann::json d = {{"method", method_.name},
+                      {"integrator", integrator_text(solver_.method, solver_.linear_solver)},
                       {"order", order},
                       {"stages", bi ? bi->stages : (be ? be->stages : 0)}};
-  if (setup_.stages == StageSolve::exact_lattice || setup_.stages == StageSolve::newton_klu)
-    d["linear_solver"] =
-        to_string(setup_.stages == StageSolve::newton_klu ? LinearSolver::klu : LinearSolver::fft);
-  if (solver_.step > 0) {
-    d["fixed_step"] = solver_.step;
-  } else {
-    d["adaptive"] = true;
-    d["rtol"] = solver_.rtol;
-    d["atol_displacement"] = solver_.atol_displacement;
-    d["atol_velocity"] = solver_.atol_velocity;
-  }
+  describe_solve(d);
   return d;
 }
 

@@ -9,37 +9,6 @@
 
 namespace stickslip {
 
-MethodSetup method_setup(const SolverParams& solver) {
-  const bool klu = solver.linear_solver == LinearSolver::klu;
-  const StageSolve implicit = klu ? StageSolve::newton_klu : StageSolve::exact_lattice;
-  const long poll = klu ? 10 : 500;
-  switch (solver.method) {
-    case Method::imex:
-      return {Package::arkstep, StageSolve::per_contact, 500,
-              "ARKStep IMEX additive Runge-Kutta: lattice explicit, contact forces implicit, each "
-              "stage solved exactly contact by contact"};
-    case Method::dirk:
-      return {
-          Package::arkstep, implicit, poll,
-          klu ? "ARKStep diagonally implicit Runge-Kutta, Newton with KLU on the sparse Jacobian"
-              : "ARKStep diagonally implicit Runge-Kutta, each stage solved exactly: lattice "
-                "by FFT, contacts by Newton on their coupled speeds"};
-    case Method::bdf:
-      return {Package::cvode, implicit, poll,
-              klu ? "CVODE variable-order BDF, Newton with KLU on the sparse Jacobian"
-                  : "CVODE variable-order BDF, each corrector solved exactly: lattice by FFT, "
-                    "contacts by Newton on their coupled speeds"};
-    case Method::erk:
-      return {Package::arkstep, StageSolve::none, 500, "ARKStep explicit Runge-Kutta"};
-    case Method::rk4:
-      return {Package::arkstep, StageSolve::none, 500,
-              "classic fourth-order Runge-Kutta (ARKStep)"};
-    case Method::automatic:
-      break;
-  }
-  throw std::logic_error("method_setup: resolve \"auto\" first");
-}
-
 MethodChoice choose_method(const System& system, const SolverParams& solver) {
   if (solver.method != Method::automatic) return {solver.method, "given"};
   if (solver.step > 0)
@@ -68,9 +37,14 @@ std::unique_ptr<Integrator> make_integrator(const System& system, const SolverPa
                                             IntegratorOptions options, double t0) {
   SolverParams chosen = with_absolute_tolerances(system, solver);
   chosen.method = choose_method(system, solver).method;
-  if (method_setup(chosen).package == Package::cvode)
-    return std::make_unique<CvodeIntegrator>(system, chosen, y0, t0, t_stop, std::move(options));
-  return std::make_unique<ArkStepIntegrator>(system, chosen, y0, t0, t_stop, std::move(options));
+  switch (method_info(chosen.method).package) {
+    case Package::arkstep:
+      return std::make_unique<ArkStepIntegrator>(system, chosen, y0, t0, t_stop,
+                                                 std::move(options));
+    case Package::cvode:
+      return std::make_unique<CvodeIntegrator>(system, chosen, y0, t0, t_stop, std::move(options));
+  }
+  throw std::logic_error("make_integrator: no adapter for the method's package");
 }
 
 SolverStats& operator+=(SolverStats& a, const SolverStats& b) {

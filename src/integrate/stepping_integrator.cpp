@@ -1,7 +1,11 @@
 #include "stickslip/integrate/stepping_integrator.hpp"
 
+#include <sunlinsol/sunlinsol_klu.h>
+
 #include <algorithm>
+#include <functional>
 #include <limits>
+#include <utility>
 
 #include "failure.hpp"
 
@@ -11,13 +15,114 @@ SteppingIntegrator::SteppingIntegrator(const System& system, const SolverParams&
                                        IntegratorOptions options, double t0, double t_stop)
     : system_(system),
       solver_(solver),
+      method_(method_info(solver.method)),
+      stages_(stage_solve(solver.method, solver.linear_solver)),
       options_(std::move(options)),
+      poll_steps_(poll_steps(solver.method, solver.linear_solver)),
       t_stop_(t_stop),
       t_last_step_(t0) {}
 
 void SteppingIntegrator::init_stepping(std::size_t watched_contacts) {
   roots_.assign(watched_contacts, 0);
   pending_y_.reset(N_VClone(y_.get()));
+  if (options_.on_step) {
+    scratch_error_.reset(N_VClone(y_.get()));
+    scratch_weights_.reset(N_VClone(y_.get()));
+  }
+}
+
+int SteppingIntegrator::full_rhs(double t, N_Vector y, N_Vector ydot, void* self) {
+  auto* me = static_cast<SteppingIntegrator*>(self);
+  return guarded(me->pending_, [&] { me->system_.rhs(t, as_span(y), as_span(ydot)); });
+}
+
+int SteppingIntegrator::explicit_rhs(double t, N_Vector y, N_Vector ydot, void* self) {
+  auto* me = static_cast<SteppingIntegrator*>(self);
+  return guarded(me->pending_, [&] { me->system_.rhs_explicit(t, as_span(y), as_span(ydot)); });
+}
+
+int SteppingIntegrator::implicit_rhs(double t, N_Vector y, N_Vector ydot, void* self) {
+  auto* me = static_cast<SteppingIntegrator*>(self);
+  return guarded(me->pending_, [&] { me->system_.rhs_implicit(t, as_span(y), as_span(ydot)); });
+}
+
+int SteppingIntegrator::root_fn(double, N_Vector y, double* g, void* self) {
+  auto* me = static_cast<SteppingIntegrator*>(self);
+  return guarded(me->pending_, [&] {
+    me->system_.stick_slip_roots(as_span(y), me->options_.watched_contacts,
+                                 std::span<double>(g, me->roots_.size()));
+  });
+}
+
+int SteppingIntegrator::jacobian_fn(double, N_Vector y, N_Vector, SUNMatrix J, void* self, N_Vector,
+                                    N_Vector, N_Vector) {
+  auto* me = static_cast<SteppingIntegrator*>(self);
+  return guarded(me->pending_, [&] {
+    me->system_.jacobian_values(as_span(y), me->jacobian_);
+    copy_into(me->jacobian_, J);
+  });
+}
+
+void SteppingIntegrator::make_per_contact_stages(StagePackage package) {
+  const System& system = system_;
+  stage_solver_ = make_exact_stage_solver(
+      ctx_, package,
+      [&system](double, double gamma, std::span<const double> predictor, std::span<const double>,
+                std::span<double> z) { return system.solve_implicit_stage(gamma, predictor, z); },
+      stage_stats_, pending_);
+}
+
+void SteppingIntegrator::make_lattice_stages(StagePackage package) {
+  lattice_stages_ = std::make_unique<LatticeStageSolver>(system_);
+  stage_solver_ = make_exact_stage_solver(
+      ctx_, package, std::bind_front(&LatticeStageSolver::solve, lattice_stages_.get()),
+      stage_stats_, pending_);
+}
+
+void SteppingIntegrator::make_klu_solver() {
+  jacobian_ = system_.jacobian_pattern(JacobianPart::full);
+  matrix_ = make_sparse_matrix(jacobian_, ctx_);
+  linear_solver_.reset(SUNLinSol_KLU(y_.get(), matrix_.get(), ctx_));
+  check_created(linear_solver_.get(), "SUNLinSol_KLU");
+}
+
+double SteppingIntegrator::local_error_norm() {
+  if (!method_.error_estimate || !local_errors(scratch_error_.get(), scratch_weights_.get()))
+    return std::numeric_limits<double>::quiet_NaN();
+  return N_VWrmsNorm(scratch_error_.get(), scratch_weights_.get());
+}
+
+void SteppingIntegrator::throw_failure(int flag, double t) {
+  NVectorPtr err(N_VClone(y_.get())), weights(N_VClone(y_.get()));
+  const bool have = local_errors(err.get(), weights.get());
+  throw IntegrationError(
+      describe_failure(system_, evolve_name(), flag_name(flag), t, err.get(), weights.get(), have));
+}
+
+void SteppingIntegrator::add_stage_stats(SolverStats& s) const {
+  if (stages_ == StageSolve::per_contact || stages_ == StageSolve::exact_lattice)
+    s.newton_iterations = stage_stats_.iterations;
+  if (lattice_stages_) {
+    s.linear_setups = lattice_stages_->lattice().factorizations();
+    s.jacobian_evaluations = lattice_stages_->contact_factorizations();
+  }
+}
+
+void SteppingIntegrator::describe_solve(nlohmann::json& d) const {
+  if (method_.whole_implicit)
+    d["linear_solver"] = to_string(linear_solver_info(solver_.linear_solver).solver);
+  if (solver_.step > 0) {
+    d["fixed_step"] = solver_.step;
+    return;
+  }
+  d["adaptive"] = true;
+  d["rtol"] = solver_.rtol;
+  d["atol_displacement"] = solver_.atol_displacement;
+  d["atol_velocity"] = solver_.atol_velocity;
+}
+
+void SteppingIntegrator::rethrow_pending() {
+  if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
 }
 
 double SteppingIntegrator::advance(double t_out, std::span<double> y) {
@@ -45,7 +150,7 @@ double SteppingIntegrator::advance_normal(double t_out, std::span<double> y) {
   int flag = kSuccess;
   for (;;) {
     throw_if_out_of_steps();
-    set_max_steps(std::min(method_setup(solver_).poll_steps, solver_.max_steps - steps_taken()));
+    set_max_steps(std::min(poll_steps_, solver_.max_steps - steps_taken()));
     flag = evolve(t_out, &t, false);
     if (flag != kTooMuchWork) break;
     if (options_.poll && options_.poll()) return finish(t, y);  // y_: the state at t, a step's end
@@ -93,7 +198,7 @@ double SteppingIntegrator::advance_stepwise(double t_out, std::span<double> y) {
     record_step();
     if (flag != kRoot) {
       // Every poll_steps steps, as normal mode: y_ is this step's end, t.
-      if (t < t_out && steps_taken() - polled_at >= method_setup(solver_).poll_steps) {
+      if (t < t_out && steps_taken() - polled_at >= poll_steps_) {
         polled_at = steps_taken();
         if (options_.poll && options_.poll()) return finish(t, y);
       }

@@ -199,6 +199,8 @@ Summary run_case(const Case& c, const RunOptions& options) {
   const SolverStats stats_before = resume ? resume->stats : SolverStats{};
   SolverParams solver = c.solver;  // max_steps counts the steps before a restart too
   solver.max_steps = std::max(1L, c.solver.max_steps - stats_before.steps);
+  const MethodChoice method = choose_method(system, c.solver);  // "auto" resolved, once
+  solver.method = method.method;
   auto integrator =
       make_integrator(system, solver, y, c.run.t_end, integrator_options, resume ? resume->t : 0.0);
   auto total_stats = [&] {
@@ -369,8 +371,7 @@ Summary run_case(const Case& c, const RunOptions& options) {
   summary.steady_sliding_mu = system.steady_sliding_mu();
   summary.solver = integrator->description();
   if (c.solver.step == 0) summary.solver.update(describe_tolerances(system, c.solver));
-  if (c.solver.method == Method::automatic)
-    summary.solver["chosen_by"] = choose_method(system, c.solver).reason;
+  if (c.solver.method == Method::automatic) summary.solver["chosen_by"] = method.reason;
   summary.git_commit = kGitCommit;
   summary.sundials_version = SUNDIALS_VERSION;
   summary.case_json = to_json(c);

@@ -1,11 +1,6 @@
 #pragma once
 // ARKStep adapter for imex, dirk, erk and rk4 (adaptive or fixed step).
 
-#include <exception>
-#include <vector>
-
-#include "stickslip/integrate/exact_stage_solver.hpp"
-#include "stickslip/integrate/lattice_stage_solver.hpp"
 #include "stickslip/integrate/stepping_integrator.hpp"
 #include "stickslip/integrate/sundials.hpp"
 
@@ -22,10 +17,6 @@ class ArkStepIntegrator final : public SteppingIntegrator {
   nlohmann::json description() const override;
 
  private:
-  static int full_rhs(double t, N_Vector y, N_Vector ydot, void* self);
-  static int explicit_rhs(double t, N_Vector y, N_Vector ydot, void* self);
-  static int implicit_rhs(double t, N_Vector y, N_Vector ydot, void* self);
-  static int root_fn(double t, N_Vector y, double* g, void* self);
   double current_time() const override;
   long steps_taken() const override;
   double last_step_size() const override;
@@ -33,19 +24,11 @@ class ArkStepIntegrator final : public SteppingIntegrator {
   int evolve(double t_out, double* t, bool one_step) override;
   void root_info(int* roots) override;
   void interpolate(double t, N_Vector y) override;
-  double local_error_norm() override;
-  [[noreturn]] void throw_failure(int flag, double t) override;
+  bool local_errors(N_Vector error, N_Vector weights) const override;
+  const char* evolve_name() const override;
+  const char* flag_name(int flag) const override;
 
-  MethodSetup setup_;
-  NVectorPtr atol_, scratch_error_, scratch_weights_;
-  StageStats stage_stats_;
-  std::unique_ptr<LatticeStageSolver> lattice_stages_;
-  NonlinearSolverPtr stage_solver_;
-  MatrixPtr matrix_;
-  LinearSolverPtr linear_solver_;
-  SparseJacobian jacobian_;
   ArkodeMemPtr arkode_mem_;  // after what it refers to, so freed before it
-  std::exception_ptr pending_;
 };
 
 }  // namespace stickslip

@@ -1,6 +1,7 @@
 #pragma once
 // The integrators a case can choose ([solver] method), behind one interface.
-// Each adapter owns its SUNDIALS handles; the physics is the System's.
+// Each adapter owns its SUNDIALS handles; the physics is the System's. What
+// each method is and how it is set up is its row in case/methods.hpp.
 
 #include <functional>
 #include <memory>
@@ -10,6 +11,7 @@
 #include <vector>
 
 #include "stickslip/case/case.hpp"
+#include "stickslip/case/methods.hpp"
 #include "stickslip/integrate/solver_stats.hpp"
 #include "stickslip/integrate/tolerances.hpp"
 #include "stickslip/model/system.hpp"
@@ -35,26 +37,6 @@ struct IntegratorOptions {
   std::function<bool()> poll;
 };
 
-// How a method is set up in SUNDIALS: one row of one table (integrator.cpp),
-// read by the adapters; no other file switches on the method.
-enum class Package { arkstep, cvode };
-enum class StageSolve {
-  none,           // explicit (erk, rk4)
-  per_contact,    // f_I = the contact forces, solved contact by contact (imex)
-  exact_lattice,  // f_I = all of f, solved exactly by LatticeStageSolver (dirk, bdf: fft)
-  newton_klu,     // f_I = all of f, SUNDIALS' Newton with KLU (dirk, bdf: klu)
-};
-struct MethodSetup {
-  Package package = Package::arkstep;
-  StageSolve stages = StageSolve::none;
-  // Steps between calls of IntegratorOptions::poll: small enough that a stop
-  // request is answered within seconds even on a 60×60×10 lattice, large
-  // enough that returning to the caller costs nothing measurable. With KLU
-  // every 10: one step may factorize the whole lattice (9.8 s on 15×15×10),
-  // and 500 of them left a SIGTERM unanswered for minutes.
-  long poll_steps = 500;
-  const char* integrator = "";  // how summary.json describes it
-};
 // Error-test failures allowed in one step of an exactly solved implicit method
 // (SUNDIALS' default: 7).
 inline constexpr int kMaxErrorTestFailures = 20;
@@ -63,9 +45,6 @@ inline constexpr int kMaxErrorTestFailures = 20;
 // the step resolves is refused (LatticeStageSolver), and from a creep step of
 // 5e-4 s the step may have to fall to 1e-10 s at a slip's onset.
 inline constexpr int kMaxStageFailures = 20;
-
-// For a resolved method (not "auto") and its linear_solver.
-MethodSetup method_setup(const SolverParams& solver);
 
 class Integrator {
  public:

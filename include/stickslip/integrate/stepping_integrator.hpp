@@ -5,7 +5,9 @@
 // run; with steps recorded it takes one step per call (ONE_STEP mode) and
 // interpolates outputs exactly as normal mode does, so recording steps never
 // changes a run. Each adapter supplies the package's calls; ARKStep and
-// CVODE give their return flags the same values.
+// CVODE give their return flags the same values, and their callbacks the
+// same signatures: the callbacks, the stage and linear solvers and what is
+// read off the package's error estimate live here, once for both.
 //
 // Output times must not change the solution either. Both packages choose
 // their first step from the first time asked for (h0 ≤ 0.1 (t_out − t0)), so
@@ -14,10 +16,14 @@
 // The first advance() therefore steps one step at a time (ONE_STEP mode)
 // toward the stop time, as a recorded run does, so h0 comes from t_stop.
 
+#include <exception>
+#include <memory>
 #include <span>
 #include <vector>
 
+#include "stickslip/integrate/exact_stage_solver.hpp"
 #include "stickslip/integrate/integrator.hpp"
+#include "stickslip/integrate/lattice_stage_solver.hpp"
 #include "stickslip/integrate/sundials.hpp"
 
 namespace stickslip {
@@ -43,19 +49,56 @@ class SteppingIntegrator : public Integrator {
   virtual int evolve(double t_out, double* t, bool one_step) = 0;
   virtual void root_info(int* roots) = 0;
   virtual void interpolate(double t, N_Vector y) = 0;  // the dense output at t
-  // Weighted RMS norm of the last step's local error estimate; NaN if none.
-  virtual double local_error_norm() = 0;
-  [[noreturn]] virtual void throw_failure(int flag, double t) = 0;
+  // The last step's local error estimate and its error weights; false if the
+  // package has none now.
+  virtual bool local_errors(N_Vector error, N_Vector weights) const = 0;
+  // The package's name of its evolve call and of a return flag, for messages.
+  virtual const char* evolve_name() const = 0;
+  virtual const char* flag_name(int flag) const = 0;
 
   // Call once y_ exists (it sizes the scratch vectors).
   void init_stepping(std::size_t watched_contacts);
 
+  // The callbacks of both packages (user data: this, as a SteppingIntegrator*).
+  static int full_rhs(double t, N_Vector y, N_Vector ydot, void* self);
+  static int explicit_rhs(double t, N_Vector y, N_Vector ydot, void* self);  // imex's lattice
+  static int implicit_rhs(double t, N_Vector y, N_Vector ydot, void* self);  // imex's contacts
+  static int root_fn(double t, N_Vector y, double* g, void* self);
+  static int jacobian_fn(double t, N_Vector y, N_Vector fy, SUNMatrix J, void* self, N_Vector,
+                         N_Vector, N_Vector);
+  void* user_data() { return static_cast<SteppingIntegrator*>(this); }
+
+  // The solvers of the implicit part (StageSolve): made here, attached to the
+  // package by the adapter.
+  void make_per_contact_stages(StagePackage package);
+  void make_lattice_stages(StagePackage package);
+  void make_klu_solver();  // jacobian_, matrix_, linear_solver_
+  // Weighted RMS norm of the last step's local error estimate; NaN if none.
+  double local_error_norm();
+  [[noreturn]] void throw_failure(int flag, double t);
+  // The stage solver's part of the statistics (exact stage solves only).
+  void add_stage_stats(SolverStats& s) const;
+  // summary.json's linear solver, and the fixed step or the tolerances.
+  void describe_solve(nlohmann::json& d) const;
+  // Rethrows an exception a callback stored (after each package call).
+  void rethrow_pending();
+
   const System& system_;
   SolverParams solver_;
+  const MethodInfo& method_;
+  const StageSolve stages_;  // how the implicit part is solved
   IntegratorOptions options_;
   SunContext ctx_;  // first member of the adapters' hierarchy: destroyed last
   NVectorPtr y_;    // the state handed to and from the package
+  NVectorPtr atol_;
   std::vector<int> roots_;
+  StageStats stage_stats_;
+  std::unique_ptr<LatticeStageSolver> lattice_stages_;
+  NonlinearSolverPtr stage_solver_;
+  MatrixPtr matrix_;
+  LinearSolverPtr linear_solver_;
+  SparseJacobian jacobian_;
+  std::exception_ptr pending_;
 
  private:
   double advance_normal(double t_out, std::span<double> y);
@@ -64,6 +107,8 @@ class SteppingIntegrator : public Integrator {
   void throw_if_out_of_steps();
   void record_step();
 
+  const long poll_steps_;  // steps between polls (case/methods.hpp)
+  NVectorPtr scratch_error_, scratch_weights_;
   double t_stop_;       // the stop time: what ONE_STEP calls aim at
   double t_last_step_;  // end of the last step written to steps.csv
   // A root found beyond the output time by the step that crossed it.

@@ -1,0 +1,70 @@
+#pragma once
+// The integration methods a case can ask for ([solver] method) and the linear
+// solvers of the implicit ones ([solver] linear_solver), one row each. A row
+// is everything the case reader checks, the SUNDIALS adapters set up and
+// summary.json says about a method: adding a method is a row here and its
+// set-up in the adapter of its package (integrate/).
+
+#include <span>
+
+#include "stickslip/case/case.hpp"
+
+namespace stickslip {
+
+// The SUNDIALS package that integrates a method.
+enum class Package { arkstep, cvode };
+
+// How the implicit part of a step is solved.
+enum class StageSolve {
+  none,           // explicit (erk, rk4)
+  per_contact,    // f_I = the contact forces, solved contact by contact (imex)
+  exact_lattice,  // f_I = all of f, solved exactly by LatticeStageSolver (dirk, bdf: fft)
+  newton_klu,     // f_I = all of f, SUNDIALS' Newton with KLU (dirk, bdf: klu)
+};
+
+struct MethodInfo {
+  Method method;
+  const char* name;  // in case files and summary.json
+  Package package;
+  // The orders [solver] order may ask for (SUNDIALS 6.4 offers these), and
+  // what order 0 means (0: the package's own default).
+  int min_order, max_order, default_order;
+  bool error_estimate;  // adaptive steps (without one: a fixed step only)
+  bool fixed_step;      // [solver] step > 0 allowed
+  // Solves the whole of f implicitly, by the linear solver [solver]
+  // linear_solver names (below); otherwise `stages` says how.
+  bool whole_implicit;
+  StageSolve stages;       // for the others
+  const char* integrator;  // summary.json's "integrator"
+  const char* implicit;    // what the implicit solve is called there ("stage", "corrector")
+};
+
+struct LinearSolverInfo {
+  LinearSolver solver;
+  StageSolve stages;
+  // Steps between the run's polls (IntegratorOptions::poll): small enough
+  // that a stop request is answered within seconds even on a 60×60×10
+  // lattice, large enough that returning to the caller costs nothing
+  // measurable. With KLU every 10: one step may factorize the whole lattice
+  // (9.8 s on 15×15×10), and 500 of them left a SIGTERM unanswered for minutes.
+  long poll_steps;
+  const char* how;  // ", each <implicit> solved ..." in summary.json's "integrator"
+};
+
+// Every method, in the order of the case file's documentation ("auto" is not
+// one: it chooses one, integrate/integrator.hpp).
+std::span<const MethodInfo> methods();
+// The row of a method; std::logic_error for Method::automatic.
+const MethodInfo& method_info(Method m);
+// The row of a linear solver ("auto" is fft).
+const LinearSolverInfo& linear_solver_info(LinearSolver s);
+
+// How a resolved method solves its implicit part, with its linear solver.
+StageSolve stage_solve(Method m, LinearSolver s);
+// Steps between polls for a resolved method and its linear solver.
+long poll_steps(Method m, LinearSolver s);
+// summary.json's "integrator": the method's, and for whole-implicit methods
+// how its linear solver solves each stage.
+std::string integrator_text(Method m, LinearSolver s);
+
+}  // namespace stickslip

@@ -1,0 +1,75 @@
+#include "stickslip/case/methods.hpp"
+
+#include <stdexcept>
+#include <string>
+
+namespace stickslip {
+
+namespace {
+
+// clang-format off
+constexpr MethodInfo kMethods[] = {
+    // method        name    package           orders     error  fixed  whole  stages
+    {Method::imex, "imex", Package::arkstep, 3, 5, 0, true,  true,  false, StageSolve::per_contact,
+     "ARKStep IMEX additive Runge-Kutta: lattice explicit, contact forces implicit, each stage "
+     "solved exactly contact by contact", "stage"},
+    // dirk's default order 4: ESDIRK436L2SA (arkstep_integrator.cpp says why these tables).
+    {Method::dirk, "dirk", Package::arkstep, 2, 5, 4, true,  true,  true,  StageSolve::none,
+     "ARKStep diagonally implicit Runge-Kutta", "stage"},
+    // BDF of order ≥ 3 is not A-stable and the lattice modes are lightly
+    // damped: at loose tolerance it produced spurious slips (MODEL.md §12).
+    {Method::bdf,  "bdf",  Package::cvode,   1, 5, 2, true,  false, true,  StageSolve::none,
+     "CVODE variable-order BDF", "corrector"},
+    {Method::erk,  "erk",  Package::arkstep, 2, 8, 0, true,  true,  false, StageSolve::none,
+     "ARKStep explicit Runge-Kutta", "stage"},
+    {Method::rk4,  "rk4",  Package::arkstep, 4, 4, 4, false, true,  false, StageSolve::none,
+     "classic fourth-order Runge-Kutta (ARKStep)", "stage"},
+};
+
+constexpr LinearSolverInfo kLinearSolvers[] = {
+    {LinearSolver::fft, StageSolve::exact_lattice, 500,
+     " solved exactly: lattice by FFT, contacts by Newton on their coupled speeds"},
+    {LinearSolver::klu, StageSolve::newton_klu, 10, "Newton with KLU on the sparse Jacobian"},
+};
+// clang-format on
+
+}  // namespace
+
+std::span<const MethodInfo> methods() {
+  return kMethods;
+}
+
+const MethodInfo& method_info(Method m) {
+  for (const auto& row : kMethods)
+    if (row.method == m) return row;
+  throw std::logic_error("method_info: resolve \"auto\" first");
+}
+
+const LinearSolverInfo& linear_solver_info(LinearSolver s) {
+  const LinearSolver resolved = s == LinearSolver::automatic ? LinearSolver::fft : s;
+  for (const auto& row : kLinearSolvers)
+    if (row.solver == resolved) return row;
+  throw std::logic_error("linear_solver_info: no such linear solver");
+}
+
+StageSolve stage_solve(Method m, LinearSolver s) {
+  const MethodInfo& method = method_info(m);
+  return method.whole_implicit ? linear_solver_info(s).stages : method.stages;
+}
+
+long poll_steps(Method m, LinearSolver s) {
+  // Explicit and imex steps are cheap: as often as fft's.
+  return linear_solver_info(method_info(m).whole_implicit ? s : LinearSolver::fft).poll_steps;
+}
+
+std::string integrator_text(Method m, LinearSolver s) {
+  const MethodInfo& method = method_info(m);
+  std::string text = method.integrator;
+  if (!method.whole_implicit) return text;
+  const LinearSolverInfo& solver = linear_solver_info(s);
+  if (solver.stages == StageSolve::exact_lattice)
+    return text + ", each " + method.implicit + solver.how;
+  return text + ", " + solver.how;
+}
+
+}  // namespace stickslip
