@@ -78,11 +78,13 @@ py::dict read_events(const fs::path& dir) {
 // ("interrupted", signal, t). The GIL is released for the run. While it goes,
 // SIGINT and SIGTERM stop it at its next output time, as on the command line,
 // and with it every other run of the process (runs in threads).
-py::object run(const Case& c, const fs::path& out, bool overwrite, bool restart, bool quiet) {
+py::object run(const Case& c, const fs::path& out, bool overwrite, bool restart, bool any_version,
+               bool quiet) {
   RunOptions options;
   options.out_dir = out;
   options.overwrite = overwrite;
   options.restart = restart;
+  options.any_version = any_version;
   options.quiet = quiet;
   std::optional<Interrupted> stopped;
   Summary summary;
@@ -188,7 +190,7 @@ PYBIND11_MODULE(_core, m) {
   m.def("case_key_problem", [](const std::string& key) { return case_key_problem(key); });
 
   m.def("run", &run, py::arg("case"), py::arg("out"), py::arg("overwrite"), py::arg("restart"),
-        py::arg("quiet"));
+        py::arg("any_version"), py::arg("quiet"));
   m.def("sweep", &sweep, py::arg("file"), py::arg("out"), py::arg("jobs"), py::arg("sets"),
         py::arg("overwrite"), py::arg("any_version"), py::arg("executable"), py::arg("progress"));
 

@@ -7,6 +7,7 @@
 #include <catch2/catch.hpp>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -14,11 +15,14 @@
 #include <string>
 
 #include "stickslip/analysis/compare.hpp"
+#include "stickslip/case/reader.hpp"
 #include "stickslip/output/checkpoint.hpp"
 #include "stickslip/output/recorder.hpp"
 #include "stickslip/output/summary.hpp"
 #include "stickslip/output/tables.hpp"
 #include "stickslip/output/writers.hpp"
+#include "stickslip/run/run.hpp"
+#include "stickslip/version.hpp"
 #include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
@@ -211,4 +215,70 @@ TEST_CASE("a restart drops a row cut off mid-write by a killed run", "[restart]"
   std::ofstream(file) << "t,F_f\n0,0\n1e-05,2.5\n2e-05,5.25\n0.0";
   keep_rows_up_to(file, 1e-4);
   CHECK(first_column(file) == std::vector<double>{0.0, 1e-5, 2e-5});
+}
+
+namespace {
+
+const char* kTiny = R"([lattice]
+nx = 4
+ny = 4
+nz = 3
+[interface]
+contacts = [ { site = [1, 2], v_star = 4.75e-4 } ]
+[run]
+t_end = 2e-5
+average_from = 1e-5
+)";
+
+// Runs `c` into `dir` and stops it at its first output time, as SIGTERM from
+// outside would: a checkpoint is left there.
+void interrupt(const Case& c, const RunOptions& options) {
+  const ScopedStopHandlers handlers;
+  std::raise(SIGTERM);
+  REQUIRE_THROWS_AS(run_case(c, options), Interrupted);
+  REQUIRE(fs::exists(options.out_dir / kCheckpointFile));
+}
+
+}  // namespace
+
+TEST_CASE("a restart continues a run whose summary.json is cut short; a whole one is refused",
+          "[restart]") {
+  const test::TempDir tmp("stickslip_test_restart_cut_summary");
+  const Case c = parse_case(kTiny, tmp.path / "tiny.toml");
+  RunOptions options{.out_dir = tmp.path / "run", .quiet = true};
+  interrupt(c, options);
+  std::ofstream(options.out_dir / kSummaryFile) << R"({"mu": 1.)";  // not JSON: no finished run
+  options.restart = true;
+  const Summary finished = run_case(c, options);
+  CHECK(finished.t_end == 2e-5);
+  CHECK(read_summary(options.out_dir));
+  CHECK_THROWS_WITH(run_case(c, options), Catch::Contains("has finished"));
+}
+
+TEST_CASE("a checkpoint of another code version continues only when asked, and says so",
+          "[restart]") {
+  const test::TempDir tmp("stickslip_test_restart_any_version");
+  const Case c = parse_case(kTiny, tmp.path / "tiny.toml");
+  RunOptions options{.out_dir = tmp.path / "run", .quiet = true};
+  interrupt(c, options);
+  Checkpoint older = read_checkpoint(options.out_dir);
+  REQUIRE(older.segments.size() == 1);
+  CHECK(older.segments[0].git_commit == kGitCommit);
+  older.git_commit = older.segments[0].git_commit = "0000000";
+  write_checkpoint(options.out_dir, older);
+
+  options.restart = true;
+  CHECK_THROWS_WITH(run_case(c, options),
+                    Catch::Contains("code version 0000000") && Catch::Contains("--any-version"));
+  options.any_version = true;
+  const Summary s = run_case(c, options);
+  REQUIRE(s.segments.size() == 2);
+  CHECK(s.segments[0].from == 0.0);
+  CHECK(s.segments[0].git_commit == "0000000");
+  CHECK(s.segments[1].from == older.t);
+  CHECK(s.segments[1].git_commit == kGitCommit);
+  const auto written = read_summary(options.out_dir);
+  REQUIRE(written);
+  CHECK(written->segments.size() == 2);
+  CHECK(written->segments[0].git_commit == "0000000");
 }

@@ -181,6 +181,17 @@ TEST_CASE("a sweep refuses results of another code version or case unless told t
   CHECK_THAT(redone.out, Catch::Contains("0 already were"));
   summary = nlohmann::json::parse(slurp(point / "summary.json"));
   CHECK(summary["case"]["drive"]["velocity"].get<double>() == 2e-3);
+
+  // A summary written before a key existed lacks it: it meant the key's
+  // default, so the point stays finished if that is its value now...
+  summary["case"]["interface"].erase("patch");  // 1, the default
+  summary["case"]["solver"].erase("threads");
+  test::spit(point / "summary.json", summary.dump());
+  CHECK(box.run({"sweep", "tiny.toml", "--report"}).code == 0);
+  // ...and is stale if not (drive.velocity is 2e-3 here, its default 1e-3).
+  summary["case"]["drive"].erase("velocity");
+  test::spit(point / "summary.json", summary.dump());
+  CHECK(box.run({"sweep", "tiny.toml", "--report"}).code == 1);
 }
 
 TEST_CASE("mpirun -n 2 gives the same sweep.csv as --jobs 2", "[sweep][mpi]") {
@@ -279,6 +290,32 @@ TEST_CASE("bad sweep files are refused: exit 2, file, line and key, nothing run"
       CHECK(box.snapshot() == before);  // nothing written, nothing run
     }
   }
+}
+
+TEST_CASE("[set] and [vary] values are judged on whole points, not on the base case alone",
+          "[sweep][bad_input]") {
+  Sandbox box;
+  box.write("base.toml", kBase);  // t_end = 3e-4
+  // average_from = 4e-4 is refused with the base case's t_end, and fine on every point.
+  box.write("later.toml",
+            "[sweep]\ncase = \"base.toml\"\n[set]\nrun.average_from = 4e-4\n[vary]\nrun.t_end = "
+            "[5e-4, 6e-4]\n");
+  const auto accepted = box.run({"sweep", "later.toml", "--report"});
+  INFO(accepted.err);
+  CHECK(accepted.code == 1);  // valid; no point finished yet
+  CHECK_THAT(accepted.out, Catch::Contains("0 of 2 points finished"));
+  box.write("both.toml",
+            "[sweep]\ncase = \"base.toml\"\n[vary]\nrun.average_from = [4e-4, 4.5e-4]\nrun.t_end = "
+            "[5e-4, 6e-4]\n");
+  CHECK(box.run({"sweep", "both.toml", "--report"}).code == 1);
+  // Refused on a point too: the error still names the [set] line's cause.
+  box.write("never.toml",
+            "[sweep]\ncase = \"base.toml\"\n[set]\nrun.average_from = 7e-4\n[vary]\nrun.t_end = "
+            "[5e-4, 6e-4]\n");
+  const auto refused = box.run({"sweep", "never.toml", "--report"});
+  CHECK(refused.code == 2);
+  CHECK_THAT(refused.err,
+             Catch::Contains("run.average_from") && Catch::Contains("(base case of never.toml)"));
 }
 
 TEST_CASE("keys in [[vary.together]] change in step; the groups combine", "[sweep]") {

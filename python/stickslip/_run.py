@@ -146,7 +146,7 @@ def load(dir):
     )
 
 
-def run(case, out=None, progress=False, overwrite=False, restart=False):
+def run(case, out=None, progress=False, overwrite=False, restart=False, any_version=False):
     """Integrates `case` (a Case, or a case file's path) and returns its Run.
 
     Without `out` the outputs go to a temporary directory that is removed
@@ -154,7 +154,8 @@ def run(case, out=None, progress=False, overwrite=False, restart=False):
     With `out`, its usual outputs are written there as `stickslip run --out`
     writes them, and stay; `overwrite` replaces an earlier run's results
     there, and `restart` continues the interrupted run there from its
-    checkpoint. `progress` shows the command line's progress line on stderr
+    checkpoint (one written by another code version only with
+    `any_version`; summary["provenance"]["segments"] lists each attempt's). `progress` shows the command line's progress line on stderr
     (when stderr is a terminal).
 
     `case` may also be a dict, as Case.from_dict takes it.
@@ -176,7 +177,7 @@ def run(case, out=None, progress=False, overwrite=False, restart=False):
         raise OutputError("restart=True needs `out`: the directory of the interrupted run")
     dir = Path(tempfile.mkdtemp(prefix="stickslip-run-")) if temporary else Path(out)
     try:
-        outcome = _core.run(case._case, dir, overwrite, restart, not progress)
+        outcome = _core.run(case._case, dir, overwrite, restart, any_version, not progress)
         if not isinstance(outcome, str):
             _, signal, t = outcome
             raise Interrupted(signal, t, None if temporary else dir)

@@ -37,8 +37,8 @@ def test_a_sweep_returns_its_table_and_its_points_are_the_modules_runs(sweep_fil
     # `set` applies to every point, as --set does; finished points are kept.
     again = stickslip.sweep(sweep_file, jobs=1, out=tmp_path / "out", progress=False)
     assert again["mu"].tolist() == table["mu"].tolist()
-    with pytest.raises(stickslip.CaseError, match="drive.velocity"):
-        stickslip.sweep(sweep_file, out=tmp_path / "other", set={"drive.velocity": -1})
+    with pytest.raises(stickslip.CaseError, match="lattice.nz: must be >= 2"):
+        stickslip.sweep(sweep_file, out=tmp_path / "other", set={"lattice.nz": 1})
 
 
 def test_without_pandas_the_table_is_a_dict_of_arrays(sweep_file, tmp_path, monkeypatch):

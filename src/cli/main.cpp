@@ -51,7 +51,8 @@ int with_exit_codes(Body&& body) {
 }
 
 int run_command(const std::string& case_file, const std::string& out, const std::string& restart,
-                const std::vector<std::string>& sets, bool overwrite, bool quiet) {
+                const std::vector<std::string>& sets, bool overwrite, bool quiet,
+                bool any_version) {
   using namespace stickslip;
   std::filesystem::path dir;  // known once the case is read
   try {
@@ -62,6 +63,7 @@ int run_command(const std::string& case_file, const std::string& out, const std:
       options.overwrite = overwrite;
       options.quiet = quiet;
       options.restart = !restart.empty();
+      options.any_version = any_version;
       dir = options.out_dir;
       install_stop_handlers();
       const Summary r = run_case(c, options);
@@ -242,6 +244,11 @@ int main(int argc, char** argv) {
   run->add_flag("--overwrite", overwrite,
                 "replace the results of an earlier run in the output directory");
   run->add_flag("--quiet", quiet, "no progress on stderr");
+  bool run_any_version = false;
+  run->add_flag("--any-version", run_any_version,
+                "with --restart: continue a checkpoint written by another code version "
+                "(summary.json lists each attempt's); for changes that leave the numbers alone")
+      ->needs(run->get_option("--restart"));
   std::string dir_a, dir_b, compare_out;
   double rtol = 1e-2;
   CLI::App* compare = app.add_subcommand(
@@ -282,7 +289,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "error: %s (see stickslip --help)\n", e.what());
     return 2;
   }
-  if (*run) return run_command(case_file, out, restart, sets, overwrite, quiet);
+  if (*run) return run_command(case_file, out, restart, sets, overwrite, quiet, run_any_version);
   if (*sweep)
     return sweep_command(sweep_file, sweep_out, jobs, sweep_sets, sweep_overwrite,
                          sweep_any_version, sweep_report, shard);

@@ -23,17 +23,35 @@ nlohmann::json restart_identity(const nlohmann::json& case_json) {
   return id;
 }
 
+bool same_case(const nlohmann::json& written, const Case& current) {
+  nlohmann::json then = restart_identity(written);
+  const nlohmann::json now = restart_identity(to_json(current));
+  const nlohmann::json defaults = restart_identity(to_json(Case{}));
+  for (const auto& [section, keys] : now.items()) {
+    if (!keys.is_object() || !then.contains(section) || !then[section].is_object()) continue;
+    for (const auto& [key, value] : keys.items())
+      if (!then[section].contains(key) && defaults.contains(section) &&
+          defaults[section].contains(key) && defaults[section][key] == value)
+        then[section][key] = value;
+  }
+  return then == now;
+}
+
 // Layout: a magic line, one line of JSON (everything but the state), then the
 // state as raw doubles; the state's length is in the JSON.
 void write_checkpoint(const std::filesystem::path& dir, const Checkpoint& c) {
-  const nlohmann::json header = {{"t", c.t},
-                                 {"output_index", c.output_index},
-                                 {"impulse_at_average", c.impulse_at_average},
-                                 {"state_size", c.state.size()},
-                                 {"stats", c.stats},
-                                 {"wall_seconds", c.wall_seconds},
-                                 {"case", c.case_json},
-                                 {"git_commit", c.git_commit}};
+  nlohmann::json header = {{"t", c.t},
+                           {"output_index", c.output_index},
+                           {"impulse_at_average", c.impulse_at_average},
+                           {"state_size", c.state.size()},
+                           {"stats", c.stats},
+                           {"wall_seconds", c.wall_seconds},
+                           {"case", c.case_json},
+                           {"git_commit", c.git_commit},
+                           {"segments", nlohmann::json::array()}};
+  auto& segments = header["segments"];
+  for (const auto& seg : c.segments)
+    segments.push_back({{"from", seg.from}, {"git_commit", seg.git_commit}});
   write_atomically(dir / kCheckpointFile, [&](std::ostream& out) {
     out << kMagic << '\n' << header.dump() << '\n';
     out.write(reinterpret_cast<const char*>(c.state.data()),
@@ -64,6 +82,13 @@ Checkpoint read_checkpoint(const std::filesystem::path& dir) {
     c.wall_seconds = h.value("wall_seconds", 0.0);
     c.case_json = h.at("case");
     c.git_commit = h.at("git_commit");
+    // Absent in checkpoints of older code: one attempt, by the writer, from 0.
+    if (h.contains("segments")) {
+      for (const auto& seg : h.at("segments"))
+        c.segments.push_back({seg.at("from").get<double>(), seg.at("git_commit")});
+    } else {
+      c.segments.push_back({0.0, c.git_commit});
+    }
   } catch (const nlohmann::json::exception& e) {
     throw OutputError(file.string() + ": damaged checkpoint header: " + e.what());
   }

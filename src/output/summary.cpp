@@ -94,6 +94,11 @@ nlohmann::json to_json(const Summary& s) {
       {"provenance", {{"git_commit", s.git_commit}, {"sundials_version", s.sundials_version}}},
       {"case", s.case_json},
   };
+  if (!s.segments.empty()) {
+    auto& segments = j["provenance"]["segments"] = nlohmann::json::array();
+    for (const auto& seg : s.segments)
+      segments.push_back({{"from", seg.from}, {"git_commit", seg.git_commit}});
+  }
   if (const auto& c = s.mu_whole_cycles)
     j["mu_whole_cycles"] = {
         {"mu", c->mu}, {"from", c->from}, {"to", c->to}, {"crossings", c->crossings}};
@@ -127,6 +132,9 @@ Summary summary_from_json(const nlohmann::json& j) {
   inside("provenance", [&] {
     s.git_commit = field(provenance, "git_commit").get<std::string>();
     s.sundials_version = field(provenance, "sundials_version").get<std::string>();
+    if (const auto* segments = present(provenance, "segments"))  // absent before restarts kept them
+      for (const auto& seg : *segments)
+        s.segments.push_back({number(seg, "from"), field(seg, "git_commit").get<std::string>()});
     return 0;
   });
   s.case_json = field(j, "case");

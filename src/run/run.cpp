@@ -142,15 +142,18 @@ Summary run_case(const Case& c, const RunOptions& options) {
   // recorder cuts its output back to the checkpoint's time.
   std::optional<Checkpoint> resume;
   if (options.restart) {
-    if (std::filesystem::exists(dir / kSummaryFile))
+    // A summary.json that does not parse (cut short outside this code, which
+    // writes it atomically) is no finished run: the restart replaces it.
+    if (read_summary(dir))
       throw OutputError(dir.string() + ": the run there has finished (summary.json exists)");
     resume = read_checkpoint(dir);
-    if (restart_identity(resume->case_json) != restart_identity(to_json(c)))
+    if (!same_case(resume->case_json, c))
       throw OutputError((dir / kCheckpointFile).string() +
                         ": written for a different case; restart with the case file it came from");
-    if (resume->git_commit != kGitCommit)
+    if (resume->git_commit != kGitCommit && !options.any_version)
       throw OutputError((dir / kCheckpointFile).string() + ": written by code version " +
-                        resume->git_commit + ", this is " + kGitCommit);
+                        resume->git_commit + ", this is " + kGitCommit +
+                        " (--any-version continues it anyway)");
   } else {
     prepare_output_dir(dir, options.overwrite, result_files());
   }
@@ -265,6 +268,9 @@ Summary run_case(const Case& c, const RunOptions& options) {
   const double t_end = c.run.t_end, t_avg = c.run.average_from, dt = c.output.interval;
   const long outputs = static_cast<long>(std::ceil(t_end / dt - 1e-9));
   double impulse_at_avg = resume ? resume->impulse_at_average : (t_avg == 0.0 ? 0.0 : std::nan(""));
+  // Every attempt of the run, this one last.
+  std::vector<RunSegment> segments = resume ? resume->segments : std::vector<RunSegment>{};
+  segments.push_back({resume ? resume->t : 0.0, kGitCommit});
   const std::int64_t impulse = system.quadrature_index(System::friction_impulse);
   const double every = c.run.checkpoint_every;
   double next_checkpoint = every > 0 ? (resume ? resume->t : 0.0) + every : kInfinity;
@@ -277,7 +283,8 @@ Summary run_case(const Case& c, const RunOptions& options) {
                            .stats = total_stats(),
                            .wall_seconds = total_wall_seconds(),
                            .case_json = to_json(c),
-                           .git_commit = kGitCommit});
+                           .git_commit = kGitCommit,
+                           .segments = segments});
   };
   // A stop request ends the run at time t, after output row k: checkpoint
   // there (between output times if the request came mid-interval).
@@ -373,6 +380,7 @@ Summary run_case(const Case& c, const RunOptions& options) {
   if (c.solver.step == 0) summary.solver.update(describe_tolerances(system, c.solver));
   if (c.solver.method == Method::automatic) summary.solver["chosen_by"] = method.reason;
   summary.git_commit = kGitCommit;
+  summary.segments = segments;
   summary.sundials_version = SUNDIALS_VERSION;
   summary.case_json = to_json(c);
   for (const auto& r : recorders) r->finish(t_end, y, summary);

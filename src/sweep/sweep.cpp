@@ -66,10 +66,11 @@ std::string number(const std::optional<double>& x) {
 
 // Starts `stickslip run` for one point, its output in <dir>/run.log.
 pid_t spawn_point(const Sweep& sweep, const SweepPoint& p, const fs::path& dir, const fs::path& exe,
-                  bool restart) {
+                  bool restart, bool any_version) {
   std::vector<std::string> args = {exe.string(), "run", sweep.base_case.string(), "--quiet"};
   if (restart) {
     args.insert(args.end(), {"--restart", dir.string()});
+    if (any_version) args.emplace_back("--any-version");
   } else {
     args.insert(args.end(), {"--out", dir.string(), "--overwrite"});
   }
@@ -145,7 +146,7 @@ PointState point_state(const SweepPoint& point, const fs::path& dir, std::string
     if (why) *why = "computed by code version " + summary->git_commit + ", this is " + kGitCommit;
     return PointState::stale;
   }
-  if (restart_identity(summary->case_json) != restart_identity(to_json(point.c))) {
+  if (!same_case(summary->case_json, point.c)) {
     if (why) *why = "computed for a different case (the base case or [set] changed)";
     return PointState::stale;
   }
@@ -328,7 +329,8 @@ SweepOutcome run_sweep(const Sweep& sweep, const std::vector<SweepPoint>& points
     const fs::path dir = options.out_dir / p.name;
     fs::create_directories(dir);
     fs::remove(dir / "failed");
-    running[spawn_point(sweep, p, dir, options.executable, restart)] = {index, restart};
+    running[spawn_point(sweep, p, dir, options.executable, restart, options.any_version)] = {
+        index, restart};
   };
   while (next < todo.size() || !running.empty()) {
     while (!g_sweep_signal && next < todo.size() &&

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -180,11 +181,16 @@ Sweep read_sweep(const fs::path& file, const std::vector<std::string>& extra_set
   }
   for (const auto& s : extra_sets) sweep.fixed.push_back(s);
 
-  // The base case with [set] and --set: its own errors name its own file.
+  // The base case with [set] and --set, and below each value alone with them,
+  // name the line at fault better than a whole point does. But a check
+  // between keys may fail there and pass on every point ([set]
+  // run.average_from = 2e-3 with [vary] run.t_end = [5e-3]): such an error
+  // is kept, and thrown only if some whole point is refused too.
+  std::optional<CaseError> first_refusal;
   try {
     (void)read_case(sweep.base_case, sweep.fixed);
   } catch (const CaseError& e) {
-    throw CaseError(std::string(e.what()) + " (base case of " + r.source + ")");
+    first_refusal = CaseError(std::string(e.what()) + " (base case of " + r.source + ")");
   }
 
   for (const auto& [key, v] : varied) {
@@ -217,9 +223,13 @@ Sweep read_sweep(const fs::path& file, const std::vector<std::string>& extra_set
       auto overrides = sweep.fixed;
       overrides.push_back(key + "=" + toml_value);
       try {
-        if (!linked) (void)read_case(sweep.base_case, overrides);
+        if (!linked && !first_refusal) (void)read_case(sweep.base_case, overrides);
       } catch (const CaseError& e) {
-        r.fail(item, where, "value " + label + " is refused by the case: " + e.what());
+        try {
+          r.fail(item, where, "value " + label + " is refused by the case: " + e.what());
+        } catch (const CaseError& blamed) {
+          first_refusal = blamed;
+        }
       }
       axis.values.push_back(std::move(toml_value));
       axis.labels.push_back(label);
@@ -227,7 +237,12 @@ Sweep read_sweep(const fs::path& file, const std::vector<std::string>& extra_set
     sweep.axes.push_back(std::move(axis));
   }
   // Checks between keys (average_from < t_end, ...) need whole points.
-  (void)sweep_points(sweep);
+  try {
+    (void)sweep_points(sweep);
+  } catch (const CaseError&) {
+    if (first_refusal) throw *first_refusal;
+    throw;
+  }
   return sweep;
 }
 

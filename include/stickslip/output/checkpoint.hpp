@@ -11,7 +11,9 @@
 #include <string>
 #include <vector>
 
+#include "stickslip/case/case.hpp"
 #include "stickslip/integrate/solver_stats.hpp"
+#include "stickslip/output/summary.hpp"
 
 namespace stickslip {
 
@@ -20,10 +22,11 @@ struct Checkpoint {
   long output_index = 0;            // rows k·interval written, k ≤ output_index
   double impulse_at_average = 0.0;  // ∫F_f dt at average_from (NaN before it)
   std::vector<double> state;
-  SolverStats stats;          // accumulated up to t
-  double wall_seconds = 0.0;  // accumulated over the run's attempts up to t
-  nlohmann::json case_json;   // the resolved case (without paths)
-  std::string git_commit;
+  SolverStats stats;                 // accumulated up to t
+  double wall_seconds = 0.0;         // accumulated over the run's attempts up to t
+  nlohmann::json case_json;          // the resolved case (without paths)
+  std::string git_commit;            // the version that wrote it
+  std::vector<RunSegment> segments;  // the run's attempts up to it, the writer's last
 };
 
 inline constexpr const char* kCheckpointFile = "checkpoint.bin";
@@ -35,5 +38,11 @@ Checkpoint read_checkpoint(const std::filesystem::path& dir);
 // The part of the resolved case that must match for a restart: everything but
 // where the case file and outputs live.
 nlohmann::json restart_identity(const nlohmann::json& case_json);
+
+// Whether the case a run wrote (a checkpoint's or summary.json's "case") is
+// `current` for a restart or a sweep: their restart identities agree, a key
+// the written one lacks (it was written before the key existed) counting as
+// the key's default.
+bool same_case(const nlohmann::json& written, const Case& current);
 
 }  // namespace stickslip

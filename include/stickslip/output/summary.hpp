@@ -32,6 +32,14 @@ struct EventSummary {
   std::vector<ContactEventStats> per_contact;
 };
 
+// One attempt of a run: from where it started (0, or a checkpoint's time) and
+// the code version that ran it. A restart with --any-version may continue a
+// run with another version; summary.json lists every attempt's.
+struct RunSegment {
+  double from = 0.0;  // [s]
+  std::string git_commit;
+};
+
 struct Summary {
   double mu = 0.0;  // over [average_from, t_end], from the friction impulse
   std::optional<WholeCycleMu> mu_whole_cycles;
@@ -46,6 +54,7 @@ struct Summary {
   nlohmann::json solver;  // the integrator's description: method, tolerances, tables
   SolverStats solver_stats;
   std::string git_commit, sundials_version;  // "provenance"
+  std::vector<RunSegment> segments;          // "provenance": every attempt, in order
   nlohmann::json case_json;                  // "case": the case as resolved
   std::optional<EventSummary> events;
   std::optional<Synchronization> synchronization;

@@ -15,6 +15,9 @@ struct RunOptions {
   bool overwrite = false;
   bool quiet = false;    // no progress on stderr
   bool restart = false;  // continue the run in out_dir from its checkpoint
+  // Continue a checkpoint written by another code version (summary.json then
+  // lists each attempt's version): for changes that leave the numbers alone.
+  bool any_version = false;
 };
 
 // Thrown when SIGINT or SIGTERM stopped a run, after its final checkpoint was

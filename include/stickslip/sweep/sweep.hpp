@@ -91,7 +91,8 @@ struct SweepOptions {
   std::filesystem::path out_dir;
   int jobs = 1;                      // points run at once on this process
   bool overwrite = false;            // recompute points from another code version or case
-  bool any_version = false;          // keep points finished by another code version (point_state)
+  bool any_version = false;          // keep points finished by another code version (point_state),
+                                     // and continue their checkpoints (run --any-version)
   int rank = 0, ranks = 1;           // this process's share: points with index % ranks == rank
                                      // (an MPI rank, or a shard of a job array)
   std::filesystem::path executable;  // the stickslip binary that runs each point
