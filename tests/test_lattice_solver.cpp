@@ -66,9 +66,10 @@ Eigen::VectorXd direct_solve(const SparseMatrix& m, const Eigen::VectorXd& rhs) 
   return lu.solve(rhs);
 }
 
-System make_system(int nx, int ny, int nz, std::vector<Contact> contacts) {
+System make_system(int nx, int ny, int nz, std::vector<Contact> contacts, int patch = 1) {
   Case c;
   c.lattice = {nx, ny, nz, 1e-4};
+  c.interface.patch = patch;
   return System(c, std::move(contacts));
 }
 
@@ -201,6 +202,7 @@ TEST_CASE("a stage with contacts is solved exactly: a direct Newton step from it
     Shape shape;
     std::vector<Contact> contacts;
     const char* what;
+    int patch = 1;
   };
   const std::vector<Layout> layouts = {
       {{4, 4, 3}, {{1, 2, 4.75e-4}}, "one contact"},
@@ -208,10 +210,23 @@ TEST_CASE("a stage with contacts is solved exactly: a direct Newton step from it
       {{4, 3, 3}, {{3, 0, 1e-3}, {0, 0, 5e-4}, {3, 2, 2e-3}}, "contacts across the periodic seam"},
       {{2, 3, 2}, {{0, 0, 1e-3}, {1, 0, 6e-4}, {1, 2, 3e-3}}, "Nx = 2"},
       {{1, 4, 3}, {{0, 1, 1e-3}, {0, 2, 7e-4}}, "Nx = 1, Nx != Ny"},
+      {{6, 5, 3},
+       {{0, 0, 1e-3},
+        {1, 0, 6e-4},
+        {3, 1, 3e-3},
+        {5, 2, 4.75e-4},
+        {2, 4, 2.09e-3},
+        {4, 4, 8e-4},
+        {0, 3, 1.5e-3}},
+       "seven contacts, some neighbours, some across the seams"},
+      {{6, 6, 3},
+       {{5, 5, 1e-3}, {1, 1, 6e-4}, {3, 0, 3e-3}, {2, 3, 7e-4}},
+       "2x2 patches, one wrapping around both seams",
+       2},
   };
   for (const Layout& layout : layouts) {
-    const System s =
-        make_system(layout.shape.nx, layout.shape.ny, layout.shape.nz, layout.contacts);
+    const System s = make_system(layout.shape.nx, layout.shape.ny, layout.shape.nz, layout.contacts,
+                                 layout.patch);
     // The solve's exactness at any γ: no stage refused for its γ λ (that
     // refusal: test_methods.cpp, "a loose rtol does not step over a slip").
     LatticeStageSolver solver(s, std::numeric_limits<double>::infinity());
@@ -219,9 +234,9 @@ TEST_CASE("a stage with contacts is solved exactly: a direct Newton step from it
       // Contacts from rest to fast slip; the predictor is b.
       std::vector<double> b = random_state(s, 11);
       const double speeds[3][2] = {{3e-9, 1e-9}, {-4e-3, 1e-3}, {5e-2, -2e-2}};
-      for (std::size_t k = 0; k < layout.contacts.size(); ++k) {
-        b[s.w_index(s.sites()[k].node, 0)] = speeds[k][0];
-        b[s.w_index(s.sites()[k].node, 1)] = speeds[k][1];
+      for (std::size_t k = 0; k < s.sites().size(); ++k) {  // a patch: each of its sites
+        b[s.w_index(s.sites()[k].node, 0)] = speeds[k % 3][0];
+        b[s.w_index(s.sites()[k].node, 1)] = speeds[k % 3][1];
       }
       std::vector<double> z = b;
       std::vector<double> weights(b.size());
@@ -250,4 +265,37 @@ TEST_CASE("a stage with contacts is solved exactly: a direct Newton step from it
       CHECK(std::abs(z[w0] - b[w0]) > 1e3 * std::abs(b[w0]));
     }
   }
+}
+
+TEST_CASE(
+    "a stage leaving a slipping contact with gamma lambda above the limit is refused, and only "
+    "that",
+    "[lattice_solver]") {
+  // One contact past its peak force (slipping at 2 v*), the rest random; the
+  // same stage solved without a limit tells what γ λ its answer has. The
+  // limit is lowered from its 1 to 0.01 so that this small state has answers
+  // on both sides of it (its slip decays at large γ: λ = 0 there).
+  constexpr double kLimit = 0.01;
+  const System s = make_system(4, 4, 3, {{1, 2, 4.75e-4}});
+  LatticeStageSolver limited(s, kLimit), unlimited(s, std::numeric_limits<double>::infinity());
+  int refused = 0, solved = 0;
+  for (double gamma : {1e-10, 1e-9, 3e-9, 1e-8, 1e-7, 1e-6, 1e-5}) {
+    std::vector<double> b = random_state(s, 3);
+    b[s.w_index(s.sites()[0].node, 0)] = 9.5e-4;
+    const std::vector<double> weights(b.size(), 1e6);
+    std::vector<double> free = b, z = b;
+    unlimited.solve(1e-4, gamma, b, weights, free);
+    const double gamma_lambda = gamma * s.weakening_rate(free);
+    INFO("gamma " << gamma << ", gamma lambda " << gamma_lambda);
+    if (gamma_lambda > kLimit) {
+      CHECK_THROWS_AS(limited.solve(1e-4, gamma, b, weights, z), StageNotConverged);
+      ++refused;
+    } else {
+      limited.solve(1e-4, gamma, b, weights, z);
+      CHECK(z == free);  // the limit changes nothing below it
+      ++solved;
+    }
+  }
+  CHECK(refused > 0);  // both sides of the limit were tried
+  CHECK(solved > 0);
 }

@@ -52,6 +52,12 @@ namespace {
 // observed sound run and still flags an audit off by 1e-4 at the default.
 constexpr double kResidualPerRtol = 100.0;
 constexpr double kDefaultRtol = 1e-6;
+// run_case itself refuses a finished run beyond the bound above (its default
+// audit_bound), so a finished row is held to what sound runs show instead:
+// 10 × rtol (at most 2.4 × rtol in the CI subset, 9.2 × rtol on 60×60×10 in
+// the soak). An audit that degrades tenfold fails here before a user's run
+// is refused for it.
+constexpr double kSoundResidualPerRtol = 10.0;
 
 // `either` is for a new row whose outcome is not known yet: run it, then
 // state the outcome it has.
@@ -277,7 +283,7 @@ void stress(const Row& row) {
   if (result) {
     CHECK(row.expect != Expect::stop);
     CHECK(std::isfinite(result->mu));
-    CHECK(std::abs(result->energy_residual) <= bound);
+    CHECK(std::abs(result->energy_residual) <= kSoundResidualPerRtol * rtol);
     CHECK(result->solver_stats.steps <= row.max_steps);
     CHECK(fs::exists(dir / "summary.json"));
   } else {
