@@ -54,39 +54,46 @@ class ContactsRecorder final : public Recorder {
 };
 
 // friction: F_f and F_f/F_N at the output times. At the end, from these
-// samples (so it costs nothing during the run): μ over whole cycles of F_f
-// and F_f's relative spread (analysis/cycles.hpp).
+// samples, kept in memory as they are recorded (so it costs nothing during
+// the run): μ over whole cycles of F_f and F_f's relative spread
+// (analysis/cycles.hpp). A restart reads back the samples before its
+// checkpoint, the only time the table is read.
 class FrictionRecorder final : public Recorder {
  public:
   static constexpr const char* kTable = "friction";
   explicit FrictionRecorder(const RecorderSetup& s)
       : system_(s.system),
-        dir_(s.dir),
         table_(open_table(s, {kTable, {time_column(), real("F_f", "N"), real("mu_inst", "1")}})),
         normal_force_(s.system.normal_force()),
-        average_from_(s.c.run.average_from) {}
+        average_from_(s.c.run.average_from) {
+    if (!s.resume_at) return;
+    table_->flush();  // the cut back reaches the file before it is read
+    const TraceTable before = read_run_table(s.dir, kTable);  // t, F_f, mu_inst
+    t_ = before.t;
+    friction_ = before.values.at(0);
+  }
   void record(double t, std::span<const double> y) override {
     const double ff = system_.friction_force(t, y);
     const double row[3] = {t, ff, ff / normal_force_};
     table_->append(row);
+    t_.push_back(t);
+    friction_.push_back(ff);
   }
   void flush() override { table_->flush(); }
   void finish(double, std::span<const double>, Summary& summary) override {
-    const TraceTable series = read_run_table(dir_, kTable);  // t, F_f, mu_inst
-    const auto& t = series.t;
-    if (std::count_if(t.begin(), t.end(), [&](double ti) { return ti >= average_from_; }) < 2)
+    if (std::count_if(t_.begin(), t_.end(), [&](double ti) { return ti >= average_from_; }) < 2)
       return;
-    const CycleMean cycles = whole_cycle_mean(t, series.values[0], average_from_);
+    const CycleMean cycles = whole_cycle_mean(t_, friction_, average_from_);
     summary.mu_whole_cycles =
         WholeCycleMu{cycles.mean / normal_force_, cycles.from, cycles.to, cycles.crossings};
-    summary.F_f_spread = relative_spread(t, series.values[0], average_from_);
+    summary.F_f_spread = relative_spread(t_, friction_, average_from_);
   }
 
  private:
   const System& system_;
-  fs::path dir_;
   std::unique_ptr<Table> table_;
   double normal_force_, average_from_;
+  std::vector<double> t_, friction_;  // every sample: t [s], F_f [N]
 };
 
 // traces: the traced contacts' in-plane velocities at the output times (in
@@ -174,15 +181,19 @@ class EventsRecorder final : public Recorder {
     };
     pair_traced_ = traced(pair_->first) && traced(pair_->second);
     if (!pair_traced_ || !s.resume_at) return;
-    // The traces before the checkpoint, as TracesRecorder wrote them (it has
-    // cut its table back already: it is made first).
+    // The traces up to the checkpoint, as TracesRecorder wrote them (whether
+    // or not it has cut its table back yet: rows after the checkpoint are left out).
     const TraceTable table = read_run_table(s.dir, TracesRecorder::kTable);
+    const auto rows = static_cast<std::size_t>(
+        std::upper_bound(table.t.begin(), table.t.end(), *s.resume_at) - table.t.begin());
     auto column = [&](int id) {
       const auto name = "vx_" + std::to_string(id);
-      return table.values[static_cast<std::size_t>(
+      const auto& values = table.values[static_cast<std::size_t>(
           std::find(table.columns.begin(), table.columns.end(), name) - table.columns.begin())];
+      return std::vector<double>(values.begin(),
+                                 values.begin() + static_cast<std::ptrdiff_t>(rows));
     };
-    pair_t_ = table.t;
+    pair_t_.assign(table.t.begin(), table.t.begin() + static_cast<std::ptrdiff_t>(rows));
     pair_va_ = column(pair_->first);
     pair_vb_ = column(pair_->second);
   }
