@@ -247,8 +247,12 @@ TEST_CASE("a restart continues a run whose summary.json is cut short; a whole on
   const Case c = parse_case(kTiny, tmp.path / "tiny.toml");
   RunOptions options{.out_dir = tmp.path / "run", .quiet = true};
   interrupt(c, options);
-  std::ofstream(options.out_dir / kSummaryFile) << R"({"mu": 1.)";  // not JSON: no finished run
   options.restart = true;
+  // Whole JSON but not a summary this code writes: not restarted over.
+  std::ofstream(options.out_dir / kSummaryFile) << "{}";
+  CHECK_THROWS_WITH(run_case(c, options),
+                    Catch::Contains("has finished") && Catch::Contains("another code version?"));
+  std::ofstream(options.out_dir / kSummaryFile) << R"({"mu": 1.)";  // not JSON: no finished run
   const Summary finished = run_case(c, options);
   CHECK(finished.t_end == 2e-5);
   CHECK(read_summary(options.out_dir));

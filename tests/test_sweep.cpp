@@ -9,6 +9,7 @@
 #include "sandbox.hpp"
 #include "stickslip/case/reader.hpp"
 #include "stickslip/sweep/sweep.hpp"
+#include "stickslip/version.hpp"
 
 using test::Sandbox;
 using test::slurp;
@@ -188,6 +189,18 @@ TEST_CASE("a sweep refuses results of another code version or case unless told t
   summary["case"]["solver"].erase("threads");
   test::spit(point / "summary.json", summary.dump());
   CHECK(box.run({"sweep", "tiny.toml", "--report"}).code == 0);
+  // A whole section added later likewise.
+  summary["case"].erase("damping");
+  test::spit(point / "summary.json", summary.dump());
+  CHECK(box.run({"sweep", "tiny.toml", "--report"}).code == 0);
+  // An attempt by another code version (a restart with --any-version) makes
+  // the point another version's result.
+  auto mixed = summary;
+  mixed["provenance"]["segments"] = {{{"from", 0.0}, {"git_commit", "0000000"}},
+                                     {{"from", 1e-4}, {"git_commit", stickslip::kGitCommit}}};
+  test::spit(point / "summary.json", mixed.dump());
+  CHECK(box.run({"sweep", "tiny.toml", "--report"}).code == 1);
+  CHECK(box.run({"sweep", "tiny.toml", "--report", "--any-version"}).code == 0);
   // ...and is stale if not (drive.velocity is 2e-3 here, its default 1e-3).
   summary["case"]["drive"].erase("velocity");
   test::spit(point / "summary.json", summary.dump());
@@ -308,14 +321,34 @@ TEST_CASE("[set] and [vary] values are judged on whole points, not on the base c
             "[sweep]\ncase = \"base.toml\"\n[vary]\nrun.average_from = [4e-4, 4.5e-4]\nrun.t_end = "
             "[5e-4, 6e-4]\n");
   CHECK(box.run({"sweep", "both.toml", "--report"}).code == 1);
-  // Refused on a point too: the error still names the [set] line's cause.
+  // Refused on a point too: that point's error, which names the key.
   box.write("never.toml",
             "[sweep]\ncase = \"base.toml\"\n[set]\nrun.average_from = 7e-4\n[vary]\nrun.t_end = "
             "[5e-4, 6e-4]\n");
   const auto refused = box.run({"sweep", "never.toml", "--report"});
   CHECK(refused.code == 2);
   CHECK_THAT(refused.err,
-             Catch::Contains("run.average_from") && Catch::Contains("(base case of never.toml)"));
+             Catch::Contains("point t_end=0.0005 is refused") &&
+                 Catch::Contains("run.average_from: must be in [0, run.t_end = 0.0005)"));
+  // Refused for the base case's own reason: blamed as before, on the base case.
+  box.write("bad.toml",
+            "[sweep]\ncase = \"base.toml\"\n[set]\ninterface.coverage = 1.5\n[vary]\nrun.t_end = "
+            "[5e-4, 6e-4]\n");
+  const auto bad = box.run({"sweep", "bad.toml", "--report"});
+  CHECK(bad.code == 2);
+  CHECK_THAT(bad.err,
+             Catch::Contains("interface.coverage") && Catch::Contains("(base case of bad.toml)"));
+  // A point refused for another reason than the base case is blamed on that reason.
+  box.write("other.toml",
+            "[sweep]\ncase = \"base.toml\"\n[set]\nrun.average_from = 4e-4\nrun.t_end = "
+            "5e-4\n[vary]\nlattice.nz = [4, 1]\n");
+  const auto nz = box.run({"sweep", "other.toml", "--report"});
+  CHECK(nz.code == 2);
+  CHECK_THAT(nz.err, Catch::Contains("lattice.nz") && !Catch::Contains("average_from"));
+  // A --set of a key the sweep varies would be lost on every point: refused.
+  const auto lost = box.run({"sweep", "later.toml", "--report", "--set", "run.t_end=1e-3"});
+  CHECK(lost.code == 2);
+  CHECK_THAT(lost.err, Catch::Contains("--set run.t_end: later.toml varies it"));
 }
 
 TEST_CASE("keys in [[vary.together]] change in step; the groups combine", "[sweep]") {

@@ -146,7 +146,8 @@ def load(dir):
     )
 
 
-def run(case, out=None, progress=False, overwrite=False, restart=False, any_version=False):
+def run(case, out=None, progress=False, overwrite=False, restart=False,
+        any_version=False):
     """Integrates `case` (a Case, or a case file's path) and returns its Run.
 
     Without `out` the outputs go to a temporary directory that is removed
@@ -175,6 +176,8 @@ def run(case, out=None, progress=False, overwrite=False, restart=False, any_vers
     temporary = out is None
     if restart and temporary:
         raise OutputError("restart=True needs `out`: the directory of the interrupted run")
+    if any_version and not restart:
+        raise OutputError("any_version=True applies to restart=True only")
     dir = Path(tempfile.mkdtemp(prefix="stickslip-run-")) if temporary else Path(out)
     try:
         outcome = _core.run(case._case, dir, overwrite, restart, any_version, not progress)

@@ -39,6 +39,8 @@ def test_a_sweep_returns_its_table_and_its_points_are_the_modules_runs(sweep_fil
     assert again["mu"].tolist() == table["mu"].tolist()
     with pytest.raises(stickslip.CaseError, match="lattice.nz: must be >= 2"):
         stickslip.sweep(sweep_file, out=tmp_path / "other", set={"lattice.nz": 1})
+    with pytest.raises(stickslip.CaseError, match="drive.velocity: .* varies it"):
+        stickslip.sweep(sweep_file, out=tmp_path / "other", set={"drive.velocity": 5e-4})
 
 
 def test_without_pandas_the_table_is_a_dict_of_arrays(sweep_file, tmp_path, monkeypatch):

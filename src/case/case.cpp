@@ -43,15 +43,8 @@ const char* to_string(Method m) {
 }
 
 const char* to_string(LinearSolver s) {
-  switch (s) {
-    case LinearSolver::automatic:
-      return "auto";
-    case LinearSolver::fft:
-      return "fft";
-    case LinearSolver::klu:
-      return "klu";
-  }
-  return "?";
+  if (s == LinearSolver::automatic) return "auto";
+  return linear_solver_info(s).name;
 }
 
 Method validated_as(Method requested) {

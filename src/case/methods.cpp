@@ -27,9 +27,9 @@ constexpr MethodInfo kMethods[] = {
 };
 
 constexpr LinearSolverInfo kLinearSolvers[] = {
-    {LinearSolver::fft, StageSolve::exact_lattice, 500,
+    {LinearSolver::fft, "fft", StageSolve::exact_lattice, 500,
      " solved exactly: lattice by FFT, contacts by Newton on their coupled speeds"},
-    {LinearSolver::klu, StageSolve::newton_klu, 10, "Newton with KLU on the sparse Jacobian"},
+    {LinearSolver::klu, "klu", StageSolve::newton_klu, 10, "Newton with KLU on the sparse Jacobian"},
 };
 // clang-format on
 
@@ -37,6 +37,14 @@ constexpr LinearSolverInfo kLinearSolvers[] = {
 
 std::span<const MethodInfo> methods() {
   return kMethods;
+}
+
+std::span<const LinearSolverInfo> linear_solvers() {
+  return kLinearSolvers;
+}
+
+const char* package_name(Package p) {
+  return p == Package::cvode ? "CVODE" : "ARKStep";
 }
 
 const MethodInfo& method_info(Method m) {

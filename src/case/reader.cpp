@@ -155,22 +155,32 @@ Apply choice(S Case::*s, E S::*m, Es... options) {
   };
 }
 
-// [solver] method: "auto", or a row of the method table (case/methods.hpp).
-void read_method(Reader& r, const toml::node& n, const std::string& key, Case& c) {
+// "auto", or the name of a row of a table of case/methods.hpp.
+template <class Row, class Choice>
+void read_row(Reader& r, const toml::node& n, const std::string& key, std::span<const Row> rows,
+              Choice Row::*field, Choice& out) {
   const std::string& word = r.string(n, key);
   std::string names = "\"auto\"";
   if (word == "auto") {
-    c.solver.method = Method::automatic;
+    out = Choice::automatic;
     return;
   }
-  for (const MethodInfo& m : methods()) {
-    if (word == m.name) {
-      c.solver.method = m.method;
+  for (const Row& row : rows) {
+    if (word == row.name) {
+      out = row.*field;
       return;
     }
-    names += ", \"" + std::string(m.name) + "\"";
+    names += ", \"" + std::string(row.name) + "\"";
   }
   r.fail(n, key, "must be one of " + names + ", got \"" + printable(word) + "\"");
+}
+
+void read_method(Reader& r, const toml::node& n, const std::string& key, Case& c) {
+  read_row(r, n, key, methods(), &MethodInfo::method, c.solver.method);
+}
+
+void read_linear_solver(Reader& r, const toml::node& n, const std::string& key, Case& c) {
+  read_row(r, n, key, linear_solvers(), &LinearSolverInfo::solver, c.solver.linear_solver);
 }
 
 void read_dir(Reader& r, const toml::node& n, const std::string& key, Case& c) {
@@ -300,9 +310,7 @@ const std::vector<Entry>& schema() {
        choice(&Case::run, &RunParams::initial, InitialState::rest, InitialState::sliding)},
       {"run", "checkpoint_every", real(&Case::run, &RunParams::checkpoint_every, kNonNegative)},
       {"solver", "method", read_method},
-      {"solver", "linear_solver",
-       choice(&Case::solver, &SolverParams::linear_solver, LinearSolver::automatic,
-              LinearSolver::fft, LinearSolver::klu)},
+      {"solver", "linear_solver", read_linear_solver},
       {"solver", "order", integer(&Case::solver, &SolverParams::order, 0)},
       {"solver", "step", real(&Case::solver, &SolverParams::step, kNonNegative)},
       {"solver", "rtol", real(&Case::solver, &SolverParams::rtol, kPositive)},
@@ -509,7 +517,8 @@ void check_consistency(const Reader& r, const Case& c) {
     r.fail_first({{"solver.step", "must be > 0 with method = " + name + " (a fixed-step method)"},
                   {"solver.method", name + " is fixed-step: it needs [solver] step > 0"}});
   if (!m.fixed_step && s.step > 0)
-    r.fail_first({{"solver.step", "must be 0 with method = " + name + " (it has no fixed step)"},
+    r.fail_first({{"solver.step", "must be 0 with method = " + name + " (" +
+                                      package_name(m.package) + " has no fixed step)"},
                   {"solver.method", name + " is adaptive only: leave [solver] step out"}});
   if (s.linear_solver != LinearSolver::automatic && !m.whole_implicit) {
     std::string implicit_methods;  // "\"dirk\" or \"bdf\""

@@ -275,7 +275,8 @@ int main(int argc, char** argv) {
                   "recompute points computed by another code version or for another case");
   sweep->add_flag("--any-version", sweep_any_version,
                   "keep points finished by another code version (sweep.csv names each point's "
-                  "commit): for code changes that leave the numbers alone");
+                  "commit) and continue their checkpoints: for code changes that leave the "
+                  "numbers alone");
   sweep->add_flag("--report", sweep_report,
                   "only write sweep.csv and sweep_summary.csv from the points finished so far");
   sweep->add_option("--shard", shard,

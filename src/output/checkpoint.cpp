@@ -28,7 +28,9 @@ bool same_case(const nlohmann::json& written, const Case& current) {
   const nlohmann::json now = restart_identity(to_json(current));
   const nlohmann::json defaults = restart_identity(to_json(Case{}));
   for (const auto& [section, keys] : now.items()) {
-    if (!keys.is_object() || !then.contains(section) || !then[section].is_object()) continue;
+    if (!keys.is_object()) continue;
+    if (!then.contains(section)) then[section] = nlohmann::json::object();  // a section added later
+    if (!then[section].is_object()) continue;
     for (const auto& [key, value] : keys.items())
       if (!then[section].contains(key) && defaults.contains(section) &&
           defaults[section].contains(key) && defaults[section][key] == value)

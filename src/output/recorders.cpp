@@ -330,8 +330,10 @@ class FinalStateRecorder final : public Recorder {
   TableStore& tables_;
 };
 
-// The registry: each output's table, and whether the case asks for it. Made
-// in this order (events reads back what traces cut on a restart).
+// The registry: each output's table, and whether the case asks for it, made
+// in this order (which no recorder depends on: a restart's read-backs take
+// the rows up to the checkpoint, and a row cut off mid-write has no newline
+// and is not read, csv_tables.cpp).
 struct RecorderKind {
   const char* table;
   bool (*asked)(const RecorderSetup&);

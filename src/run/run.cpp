@@ -138,13 +138,20 @@ std::vector<std::string> result_files() {
 Summary run_case(const Case& c, const RunOptions& options) {
   const auto wall_start = Clock::now();
   const auto& dir = options.out_dir;
-  // A restart continues from the checkpoint: same case, same code; every
-  // recorder cuts its output back to the checkpoint's time.
+  // A restart continues from the checkpoint: same case, same code (or any
+  // code, when asked); every recorder cuts its output back to the checkpoint's time.
   std::optional<Checkpoint> resume;
   if (options.restart) {
     // A summary.json that does not parse (cut short outside this code, which
     // writes it atomically) is no finished run: the restart replaces it.
-    if (read_summary(dir))
+    bool finished = false;
+    try {
+      finished = read_summary(dir).has_value();
+    } catch (const OutputError& e) {  // whole JSON, but not a summary this code writes
+      throw OutputError(dir.string() + ": the run there has finished (summary.json exists, " +
+                        "written by another code version?): " + e.what());
+    }
+    if (finished)
       throw OutputError(dir.string() + ": the run there has finished (summary.json exists)");
     resume = read_checkpoint(dir);
     if (!same_case(resume->case_json, c))
@@ -181,7 +188,8 @@ Summary run_case(const Case& c, const RunOptions& options) {
 
   IntegratorOptions integrator_options;
   integrator_options.watched_contacts = watched;
-  // Between output times too, every kPollSteps steps: flush the outputs now
+  // Between output times too, every few hundred steps (the method's poll
+  // interval, case/methods.hpp): flush the outputs now
   // and then, and stop at once when SIGINT or SIGTERM arrived.
   auto last_flush = Clock::now();
   integrator_options.poll = [&] {

@@ -142,9 +142,15 @@ PointState point_state(const SweepPoint& point, const fs::path& dir, std::string
     return fs::exists(dir / "friction.csv") || fs::exists(dir / kHdf5File) ? PointState::incomplete
                                                                            : PointState::absent;
   }
-  if (!any_version && summary->git_commit != kGitCommit) {
-    if (why) *why = "computed by code version " + summary->git_commit + ", this is " + kGitCommit;
-    return PointState::stale;
+  if (!any_version) {
+    // Every attempt's version: a restart with --any-version may have mixed them.
+    std::vector<std::string> versions{summary->git_commit};
+    for (const auto& segment : summary->segments) versions.push_back(segment.git_commit);
+    for (const auto& version : versions)
+      if (version != kGitCommit) {
+        if (why) *why = "computed by code version " + version + ", this is " + kGitCommit;
+        return PointState::stale;
+      }
   }
   if (!same_case(summary->case_json, point.c)) {
     if (why) *why = "computed for a different case (the base case or [set] changed)";

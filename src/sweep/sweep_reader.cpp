@@ -185,12 +185,18 @@ Sweep read_sweep(const fs::path& file, const std::vector<std::string>& extra_set
   // name the line at fault better than a whole point does. But a check
   // between keys may fail there and pass on every point ([set]
   // run.average_from = 2e-3 with [vary] run.t_end = [5e-3]): such an error
-  // is kept, and thrown only if some whole point is refused too.
-  std::optional<CaseError> first_refusal;
+  // is kept, and thrown only if a whole point is refused for the same reason
+  // (else the point's own error is).
+  struct Refusal {
+    CaseError error;
+    std::string reason;  // the case reader's message
+  };
+  std::optional<Refusal> first_refusal;
   try {
     (void)read_case(sweep.base_case, sweep.fixed);
   } catch (const CaseError& e) {
-    first_refusal = CaseError(std::string(e.what()) + " (base case of " + r.source + ")");
+    first_refusal =
+        Refusal{CaseError(std::string(e.what()) + " (base case of " + r.source + ")"), e.what()};
   }
 
   for (const auto& [key, v] : varied) {
@@ -228,7 +234,7 @@ Sweep read_sweep(const fs::path& file, const std::vector<std::string>& extra_set
         try {
           r.fail(item, where, "value " + label + " is refused by the case: " + e.what());
         } catch (const CaseError& blamed) {
-          first_refusal = blamed;
+          first_refusal = Refusal{blamed, e.what()};
         }
       }
       axis.values.push_back(std::move(toml_value));
@@ -236,11 +242,23 @@ Sweep read_sweep(const fs::path& file, const std::vector<std::string>& extra_set
     }
     sweep.axes.push_back(std::move(axis));
   }
+  // A --set of a key the sweep varies would be overridden by every point: lost.
+  for (const auto& set : extra_sets) {
+    std::string key = set.substr(0, set.find('='));
+    key.erase(0, key.find_first_not_of(" \t"));
+    key.erase(key.find_last_not_of(" \t") + 1);
+    if (std::any_of(sweep.axes.begin(), sweep.axes.end(),
+                    [&](const SweepAxis& a) { return a.key == key; }))
+      throw CaseError("--set " + printable(key) + ": " + r.source +
+                      " varies it; change its values in [vary] instead");
+  }
+
   // Checks between keys (average_from < t_end, ...) need whole points.
   try {
     (void)sweep_points(sweep);
-  } catch (const CaseError&) {
-    if (first_refusal) throw *first_refusal;
+  } catch (const CaseError& e) {
+    if (first_refusal && std::string_view(e.what()).ends_with(first_refusal->reason))
+      throw first_refusal->error;
     throw;
   }
   return sweep;

@@ -41,6 +41,7 @@ struct MethodInfo {
 
 struct LinearSolverInfo {
   LinearSolver solver;
+  const char* name;  // in case files and summary.json
   StageSolve stages;
   // Steps between the run's polls (IntegratorOptions::poll): small enough
   // that a stop request is answered within seconds even on a 60×60×10
@@ -54,6 +55,10 @@ struct LinearSolverInfo {
 // Every method, in the order of the case file's documentation ("auto" is not
 // one: it chooses one, integrate/integrator.hpp).
 std::span<const MethodInfo> methods();
+// Every linear solver ("auto", fft, is not one).
+std::span<const LinearSolverInfo> linear_solvers();
+// "ARKStep", "CVODE": for messages.
+const char* package_name(Package p);
 // The row of a method; std::logic_error for Method::automatic.
 const MethodInfo& method_info(Method m);
 // The row of a linear solver ("auto" is fft).

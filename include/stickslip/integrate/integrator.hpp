@@ -1,7 +1,9 @@
 #pragma once
 // The integrators a case can choose ([solver] method), behind one interface.
-// Each adapter owns its SUNDIALS handles; the physics is the System's. What
-// each method is and how it is set up is its row in case/methods.hpp.
+// The adapters own the SUNDIALS handles (the package's in each adapter, the
+// stage and linear solvers in SteppingIntegrator, which they share); the
+// physics is the System's. What each method is, and how its implicit part is
+// solved, is its row in case/methods.hpp.
 
 #include <functional>
 #include <memory>
@@ -30,7 +32,8 @@ struct StepRecord {
 struct IntegratorOptions {
   std::vector<int> watched_contacts;               // stick/slip root functions, none if empty
   std::function<void(const StepRecord&)> on_step;  // called after every accepted step, if set
-  // Called every kPollSteps steps inside advance(); when it returns true,
+  // Called every poll interval of steps inside advance() (a few hundred; ten
+  // with KLU: case/methods.hpp); when it returns true,
   // advance() returns at the end of the last accepted step. This is how a
   // run stalled inside one output interval still answers SIGINT/SIGTERM and
   // flushes its outputs.

@@ -1,6 +1,6 @@
 #pragma once
 // What the ARKStep and CVODE adapters share: how advance() drives a SUNDIALS
-// integrator. In normal mode it returns every kPollSteps steps (the
+// integrator. In normal mode it returns every poll interval of steps (the
 // "too much work" return) to ask poll() and to hold max_steps over the whole
 // run; with steps recorded it takes one step per call (ONE_STEP mode) and
 // interpolates outputs exactly as normal mode does, so recording steps never

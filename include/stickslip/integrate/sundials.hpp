@@ -73,7 +73,7 @@ MatrixPtr make_sparse_matrix(const SparseJacobian& jac, SUNContext ctx);
 
 // Error handler for ARKODE and CVODE: prints their messages like the default
 // handler, except "too much work" (flag −1 in both), which the adapters use
-// on purpose to return every kPollSteps steps.
+// on purpose to return every poll interval of steps (case/methods.hpp).
 void print_solver_message(int error_code, const char* module, const char* function, char* msg,
                           void* user_data);
 
