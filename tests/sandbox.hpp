@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-namespace test {
+namespace stickslip::test {
 
 namespace fs = std::filesystem;
 
@@ -88,4 +88,4 @@ struct Sandbox {
   }
 };
 
-}  // namespace test
+}  // namespace stickslip::test

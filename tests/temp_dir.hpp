@@ -10,7 +10,7 @@
 #include <string>
 #include <system_error>
 
-namespace test {
+namespace stickslip::test {
 
 struct TempDir {
   std::filesystem::path path;  // exists, empty at first
@@ -29,4 +29,4 @@ struct TempDir {
   TempDir& operator=(const TempDir&) = delete;
 };
 
-}  // namespace test
+}  // namespace stickslip::test

@@ -11,6 +11,8 @@
 
 #include "sandbox.hpp"
 
+namespace test = stickslip::test;
+
 namespace fs = std::filesystem;
 using Catch::Contains;
 using Catch::StartsWith;

@@ -13,7 +13,7 @@ namespace fs = std::filesystem;
 using Catch::Contains;
 using Catch::StartsWith;
 
-using namespace test;
+using namespace stickslip::test;
 
 namespace {
 

@@ -12,6 +12,8 @@
 
 #include "sandbox.hpp"
 
+namespace test = stickslip::test;
+
 using test::Sandbox;
 using test::slurp;
 namespace fs = std::filesystem;

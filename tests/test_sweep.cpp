@@ -11,6 +11,8 @@
 #include "stickslip/sweep/sweep.hpp"
 #include "stickslip/version.hpp"
 
+namespace test = stickslip::test;
+
 using test::Sandbox;
 using test::slurp;
 namespace fs = std::filesystem;

@@ -135,64 +135,123 @@ std::vector<std::string> result_files() {
 }
 }  // namespace
 
-Summary run_case(const Case& c, const RunOptions& options) {
-  const auto wall_start = Clock::now();
-  const auto& dir = options.out_dir;
-  // A restart continues from the checkpoint: same case, same code (or any
-  // code, when asked); every recorder cuts its output back to the checkpoint's time.
+// Everything a run holds between its phases: what run_case's loop kept in
+// locals, named.
+struct CaseRun::State {
+  State(const Case& c, const RunOptions& options);
+
+  // Integrates to `target`, stopping at every stick/slip transition on the
+  // way. Returns the time reached: `target`, or earlier on a stop request.
+  double advance_to(double target);
+  void record_events(double t);
+  void record(double t);
+  // A run that goes wrong stops here, keeping every row written so far; its
+  // μ is never reported. Fixed-step runs can blow up without any error test,
+  // so for them the energy audit is watched too.
+  void check_health(double t) const;
+  void checkpoint(double t, long k);
+  // A stop request ends the run at time t, after output row k: checkpoint
+  // there (between output times if the request came mid-interval).
+  void stop_if_requested(double t, long k);
+  void flush_all();
+  SolverStats total_stats() const;
+  // Like the solver's counts, a run's cost spans its attempts: a restarted
+  // point's wall time is that of every attempt up to its checkpoint.
+  double total_wall_seconds() const;
+
+  const Case& c;
+  const RunOptions options;
+  const std::filesystem::path dir;
+  const Clock::time_point wall_start = Clock::now();
   std::optional<Checkpoint> resume;
-  if (options.restart) {
-    // A summary.json that does not parse (cut short outside this code, which
-    // writes it atomically) is no finished run: the restart replaces it.
-    bool finished = false;
-    try {
-      finished = read_summary(dir).has_value();
-    } catch (const OutputError& e) {  // whole JSON, but not a summary this code writes
-      throw OutputError(dir.string() + ": the run there has finished (summary.json exists, " +
-                        "written by another code version?): " + e.what());
-    }
-    if (finished)
-      throw OutputError(dir.string() + ": the run there has finished (summary.json exists)");
-    resume = read_checkpoint(dir);
-    if (!same_case(resume->case_json, c))
-      throw OutputError((dir / kCheckpointFile).string() +
-                        ": written for a different case; restart with the case file it came from");
-    if (resume->git_commit != kGitCommit && !options.any_version)
-      throw OutputError((dir / kCheckpointFile).string() + ": written by code version " +
-                        resume->git_commit + ", this is " + kGitCommit +
-                        " (--any-version continues it anyway)");
-  } else {
+  std::unique_ptr<const System> system_owned;
+  const System& system;
+  std::vector<double> y0, y;
+  std::unique_ptr<TableStore> tables;
+  std::vector<int> watched;
+  std::vector<std::unique_ptr<Recorder>> recorders;
+  Clock::time_point last_flush = Clock::now();
+  SolverStats stats_before;
+  MethodChoice method;
+  std::unique_ptr<Integrator> integrator;
+  Progress progress;
+  double t_end, t_avg, dt;
+  long outputs;
+  long next = 1;  // the next output row
+  double impulse_at_avg;
+  std::vector<RunSegment> segments;  // every attempt of the run, this one last
+  std::int64_t impulse;
+  double every, next_checkpoint;
+};
+
+namespace {
+std::unique_ptr<const System> make_system(const Case& c) {
+  return std::make_unique<const System>(c, place_contacts(c.lattice, c.interface));
+}
+
+// A restart continues from the checkpoint: same case, same code (or any
+// code, when asked); every recorder cuts its output back to the checkpoint's time.
+std::optional<Checkpoint> open_output_dir(const Case& c, const RunOptions& options) {
+  const auto& dir = options.out_dir;
+  if (!options.restart) {
     prepare_output_dir(dir, options.overwrite, result_files());
+    return std::nullopt;
   }
-  const System system(c, place_contacts(c.lattice, c.interface));
+  // A summary.json that does not parse (cut short outside this code, which
+  // writes it atomically) is no finished run: the restart replaces it.
+  bool finished = false;
+  try {
+    finished = read_summary(dir).has_value();
+  } catch (const OutputError& e) {  // whole JSON, but not a summary this code writes
+    throw OutputError(dir.string() + ": the run there has finished (summary.json exists, " +
+                      "written by another code version?): " + e.what());
+  }
+  if (finished)
+    throw OutputError(dir.string() + ": the run there has finished (summary.json exists)");
+  Checkpoint resume = read_checkpoint(dir);
+  if (!same_case(resume.case_json, c))
+    throw OutputError((dir / kCheckpointFile).string() +
+                      ": written for a different case; restart with the case file it came from");
+  if (resume.git_commit != kGitCommit && !options.any_version)
+    throw OutputError((dir / kCheckpointFile).string() + ": written by code version " +
+                      resume.git_commit + ", this is " + kGitCommit +
+                      " (--any-version continues it anyway)");
+  return resume;
+}
+}  // namespace
+
+CaseRun::State::State(const Case& c_, const RunOptions& options_)
+    : c(c_),
+      options(options_),
+      dir(options_.out_dir),
+      resume(open_output_dir(c_, options_)),
+      system_owned(make_system(c_)),
+      system(*system_owned),
+      progress(!options_.quiet, c_.run.t_end) {
   const auto& contacts = system.contacts();
-  std::vector<double> y0(static_cast<std::size_t>(system.size()));
+  y0.resize(static_cast<std::size_t>(system.size()));
   system.initial_state(c.run.initial, y0);
-  std::vector<double> y = resume ? resume->state : y0;
+  y = resume ? resume->state : y0;
 
   // Only what the case asks for is recorded (traces, events, steps, signals, ...).
-  const auto tables = make_table_store(c.output.format, dir, resume.has_value());
+  tables = make_table_store(c.output.format, dir, resume.has_value());
   if (!resume) {
     // An HDF5 file describes its run by itself (a CSV run has summary.json).
     tables->set_attribute("case", to_json(c).dump());
     tables->set_attribute("git_commit", kGitCommit);
     tables->set_attribute("sundials_version", SUNDIALS_VERSION);
   }
-  const auto watched = selected_contacts(c.output.events, c.output.event_ids, contacts.size());
-  const auto recorders = make_recorders(
+  watched = selected_contacts(c.output.events, c.output.event_ids, contacts.size());
+  recorders = make_recorders(
       {c, system, *tables, dir, y0, resume ? std::optional<double>(resume->t) : std::nullopt,
        selected_contacts(c.output.traces, c.output.trace_ids, contacts.size()), watched});
-  auto flush_all = [&] {
-    for (const auto& r : recorders) r->flush();
-  };
 
   IntegratorOptions integrator_options;
   integrator_options.watched_contacts = watched;
   // Between output times too, every few hundred steps (the method's poll
-  // interval, case/methods.hpp): flush the outputs now
-  // and then, and stop at once when SIGINT or SIGTERM arrived.
-  auto last_flush = Clock::now();
-  integrator_options.poll = [&] {
+  // interval, case/methods.hpp): flush the outputs now and then, and stop at
+  // once when SIGINT or SIGTERM arrived.
+  integrator_options.poll = [this] {
     if (seconds_since(last_flush) > kFlushSeconds) {
       flush_all();
       last_flush = Clock::now();
@@ -203,153 +262,190 @@ Summary run_case(const Case& c, const RunOptions& options) {
   for (const auto& r : recorders)
     if (r->wants_steps()) step_recorders.push_back(r.get());
   if (!step_recorders.empty())
-    integrator_options.on_step = [&](const StepRecord& step) {
+    integrator_options.on_step = [step_recorders](const StepRecord& step) {
       for (Recorder* r : step_recorders) r->step(step);
     };
 
-  const SolverStats stats_before = resume ? resume->stats : SolverStats{};
+  stats_before = resume ? resume->stats : SolverStats{};
   SolverParams solver = c.solver;  // max_steps counts the steps before a restart too
   solver.max_steps = std::max(1L, c.solver.max_steps - stats_before.steps);
-  const MethodChoice method = choose_method(system, c.solver);  // "auto" resolved, once
+  method = choose_method(system, c.solver);  // "auto" resolved, once
   solver.method = method.method;
-  auto integrator =
+  integrator =
       make_integrator(system, solver, y, c.run.t_end, integrator_options, resume ? resume->t : 0.0);
-  auto total_stats = [&] {
-    SolverStats s = stats_before;
-    return s += integrator->stats();
-  };
-  // Like the solver's counts, a run's cost spans its attempts: a restarted
-  // point's wall time is that of every attempt up to its checkpoint.
-  auto total_wall_seconds = [&] {
-    return (resume ? resume->wall_seconds : 0.0) + seconds_since(wall_start);
-  };
-
-  auto record_events = [&](double t) {
-    const auto roots = integrator->roots();
-    for (std::size_t k = 0; k < roots.size(); ++k) {
-      if (roots[k] == 0) continue;
-      const auto id = static_cast<std::size_t>(watched[k]);
-      const auto v = system.contact_velocity(id, y);
-      const Event e{t, watched[k], roots[k] > 0 ? EventKind::slip : EventKind::stick,
-                    std::hypot(v[0], v[1]), system.contact_force(id, y)};
-      for (const auto& r : recorders) r->event(e);
-    }
-  };
-  // Integrates to `target`, stopping at every stick/slip transition on the
-  // way. Returns the time reached: `target`, or earlier on a stop request.
-  auto advance_to = [&](double target) {
-    for (;;) {
-      const double t = integrator->advance(target, y);
-      if (!watched.empty()) record_events(t);
-      if (t >= target || g_stop_signal) return t;
-    }
-  };
-  auto record = [&](double t) {
-    for (const auto& r : recorders) r->record(t, y);
-  };
-  // A run that goes wrong stops here, keeping every row written so far; its
-  // μ is never reported. Fixed-step runs can blow up without any error test,
-  // so for them the energy audit is watched too.
-  auto check_health = [&](double t) {
-    for (double v : y)
-      if (!std::isfinite(v)) {
-        char msg[160];
-        std::snprintf(msg, sizeof msg, "non-finite state at t = %.9g s (%s)", t,
-                      c.solver.step > 0 ? "the fixed step is too large" : "the solution diverged");
-        throw IntegrationError(msg);
-      }
-    if (c.solver.step > 0 && t >= 10 * c.output.interval) {
-      const double residual = system.energy_residual(t, y, y0);
-      if (!(std::abs(residual) < kDivergedResidual)) {
-        char msg[200];
-        std::snprintf(msg, sizeof msg,
-                      "energy audit diverged at t = %.9g s (relative residual %.3g): the fixed "
-                      "step %.3g s is too large",
-                      t, residual, c.solver.step);
-        throw IntegrationError(msg);
-      }
-    }
-  };
 
   if (!resume) record(0.0);
-  Progress progress(!options.quiet, c.run.t_end);
-  const double t_end = c.run.t_end, t_avg = c.run.average_from, dt = c.output.interval;
-  const long outputs = static_cast<long>(std::ceil(t_end / dt - 1e-9));
-  double impulse_at_avg = resume ? resume->impulse_at_average : (t_avg == 0.0 ? 0.0 : std::nan(""));
-  // Every attempt of the run, this one last.
-  std::vector<RunSegment> segments = resume ? resume->segments : std::vector<RunSegment>{};
+  t_end = c.run.t_end;
+  t_avg = c.run.average_from;
+  dt = c.output.interval;
+  outputs = static_cast<long>(std::ceil(t_end / dt - 1e-9));
+  next = resume ? resume->output_index + 1 : 1;
+  impulse_at_avg = resume ? resume->impulse_at_average : (t_avg == 0.0 ? 0.0 : std::nan(""));
+  segments = resume ? resume->segments : std::vector<RunSegment>{};
   segments.push_back({resume ? resume->t : 0.0, kGitCommit});
-  const std::int64_t impulse = system.quadrature_index(System::friction_impulse);
-  const double every = c.run.checkpoint_every;
-  double next_checkpoint = every > 0 ? (resume ? resume->t : 0.0) + every : kInfinity;
-  auto checkpoint = [&](double t, long k) {
-    flush_all();
-    write_checkpoint(dir, {.t = t,
-                           .output_index = k,
-                           .impulse_at_average = impulse_at_avg,
-                           .state = y,
-                           .stats = total_stats(),
-                           .wall_seconds = total_wall_seconds(),
-                           .case_json = to_json(c),
-                           .git_commit = kGitCommit,
-                           .segments = segments});
-  };
-  // A stop request ends the run at time t, after output row k: checkpoint
-  // there (between output times if the request came mid-interval).
-  auto stop_if_requested = [&](double t, long k) {
-    if (!g_stop_signal) return;
-    const int sig = g_stop_signal;
-    checkpoint(t, k);
-    throw Interrupted{sig, t};
-  };
+  impulse = system.quadrature_index(System::friction_impulse);
+  every = c.run.checkpoint_every;
+  next_checkpoint = every > 0 ? (resume ? resume->t : 0.0) + every : kInfinity;
+}
+
+void CaseRun::State::flush_all() {
+  for (const auto& r : recorders) r->flush();
+}
+
+SolverStats CaseRun::State::total_stats() const {
+  SolverStats s = stats_before;
+  return s += integrator->stats();
+}
+
+double CaseRun::State::total_wall_seconds() const {
+  return (resume ? resume->wall_seconds : 0.0) + seconds_since(wall_start);
+}
+
+void CaseRun::State::record_events(double t) {
+  const auto roots = integrator->roots();
+  for (std::size_t k = 0; k < roots.size(); ++k) {
+    if (roots[k] == 0) continue;
+    const auto id = static_cast<std::size_t>(watched[k]);
+    const auto v = system.contact_velocity(id, y);
+    const Event e{t, watched[k], roots[k] > 0 ? EventKind::slip : EventKind::stick,
+                  std::hypot(v[0], v[1]), system.contact_force(id, y)};
+    for (const auto& r : recorders) r->event(e);
+  }
+}
+
+double CaseRun::State::advance_to(double target) {
+  for (;;) {
+    const double t = integrator->advance(target, y);
+    if (!watched.empty()) record_events(t);
+    if (t >= target || g_stop_signal) return t;
+  }
+}
+
+void CaseRun::State::record(double t) {
+  for (const auto& r : recorders) r->record(t, y);
+}
+
+void CaseRun::State::check_health(double t) const {
+  for (double v : y)
+    if (!std::isfinite(v)) {
+      char msg[160];
+      std::snprintf(msg, sizeof msg, "non-finite state at t = %.9g s (%s)", t,
+                    c.solver.step > 0 ? "the fixed step is too large" : "the solution diverged");
+      throw IntegrationError(msg);
+    }
+  if (c.solver.step > 0 && t >= 10 * c.output.interval) {
+    const double residual = system.energy_residual(t, y, y0);
+    if (!(std::abs(residual) < kDivergedResidual)) {
+      char msg[200];
+      std::snprintf(msg, sizeof msg,
+                    "energy audit diverged at t = %.9g s (relative residual %.3g): the fixed "
+                    "step %.3g s is too large",
+                    t, residual, c.solver.step);
+      throw IntegrationError(msg);
+    }
+  }
+}
+
+void CaseRun::State::checkpoint(double t, long k) {
+  flush_all();
+  write_checkpoint(dir, {.t = t,
+                         .output_index = k,
+                         .impulse_at_average = impulse_at_avg,
+                         .state = y,
+                         .stats = total_stats(),
+                         .wall_seconds = total_wall_seconds(),
+                         .case_json = to_json(c),
+                         .git_commit = kGitCommit,
+                         .segments = segments});
+}
+
+void CaseRun::State::stop_if_requested(double t, long k) {
+  if (!g_stop_signal) return;
+  const int sig = g_stop_signal;
+  checkpoint(t, k);
+  throw Interrupted{sig, t};
+}
+
+CaseRun::CaseRun(const Case& c, const RunOptions& options)
+    : s_(std::make_unique<State>(c, options)) {}
+
+CaseRun::~CaseRun() = default;
+
+long CaseRun::next_output() const {
+  return s_->next;
+}
+
+long CaseRun::outputs() const {
+  return s_->outputs;
+}
+
+std::span<const double> CaseRun::state() const {
+  return s_->y;
+}
+
+const System& CaseRun::system() const {
+  return s_->system;
+}
+
+void CaseRun::output() {
+  State& s = *s_;
+  const long k = s.next;
+  if (k > s.outputs) throw std::logic_error("CaseRun::output: past the last output time");
   try {
-    for (long k = resume ? resume->output_index + 1 : 1; k <= outputs; ++k) {
-      const double t_out = std::min(t_end, static_cast<double>(k) * dt);
-      if (std::isnan(impulse_at_avg) && t_avg <= t_out) {
-        // μ averages from t_avg exactly: stop there (interpolated, like every output).
-        const double t = advance_to(t_avg);
-        if (t < t_avg) {
-          check_health(t);
-          stop_if_requested(t, k - 1);
-        }
-        impulse_at_avg = y[impulse];
+    const double t_out = std::min(s.t_end, static_cast<double>(k) * s.dt);
+    if (std::isnan(s.impulse_at_avg) && s.t_avg <= t_out) {
+      // μ averages from t_avg exactly: stop there (interpolated, like every output).
+      const double t = s.advance_to(s.t_avg);
+      if (t < s.t_avg) {
+        s.check_health(t);
+        s.stop_if_requested(t, k - 1);
       }
-      const double t = advance_to(t_out);
-      check_health(t);  // before the row is written: no NaN ever reaches an output
-      if (t < t_out) stop_if_requested(t, k - 1);
-      record(t_out);
-      progress.update(t_out, total_stats().steps);
-      stop_if_requested(t_out, k);
-      if (t_out >= next_checkpoint && k < outputs) {
-        checkpoint(t_out, k);
-        next_checkpoint += every;
-      }
-      if (seconds_since(last_flush) > kFlushSeconds) {
-        flush_all();
-        last_flush = Clock::now();
-      }
+      s.impulse_at_avg = s.y[s.impulse];
+    }
+    const double t = s.advance_to(t_out);
+    s.check_health(t);  // before the row is written: no NaN ever reaches an output
+    if (t < t_out) s.stop_if_requested(t, k - 1);
+    s.record(t_out);
+    s.next = k + 1;
+    s.progress.update(t_out, s.total_stats().steps);
+    s.stop_if_requested(t_out, k);
+    if (t_out >= s.next_checkpoint && k < s.outputs) {
+      s.checkpoint(t_out, k);
+      s.next_checkpoint += s.every;
+    }
+    if (seconds_since(s.last_flush) > kFlushSeconds) {
+      s.flush_all();
+      s.last_flush = Clock::now();
     }
   } catch (...) {
     // Keep what was recorded; an output that cannot be flushed now must not
     // hide why the run stopped, but the user must learn that rows were lost.
     try {
-      flush_all();
+      s.flush_all();
     } catch (const std::exception& e) {
       std::fprintf(stderr, "warning: the outputs could not be flushed as the run stopped: %s\n",
                    e.what());
     }
     throw;
   }
-  flush_all();
+}
+
+Summary CaseRun::finish() {
+  State& s = *s_;
+  if (s.next <= s.outputs) throw std::logic_error("CaseRun::finish: output times are left");
+  const Case& c = s.c;
+  const System& system = s.system;
+  const auto& y = s.y;
+  s.flush_all();
 
   Summary summary;
   const double normal_force = system.normal_force();
-  summary.contacts = static_cast<long>(contacts.size());
+  summary.contacts = static_cast<long>(system.contacts().size());
   summary.theta = system.coverage();
   summary.F_N = normal_force;
-  summary.mu = (y[impulse] - impulse_at_avg) / ((t_end - t_avg) * normal_force);
-  summary.energy_residual = system.energy_residual(t_end, y, y0);
-  summary.solver_stats = total_stats();
+  summary.mu = (y[s.impulse] - s.impulse_at_avg) / ((s.t_end - s.t_avg) * normal_force);
+  summary.energy_residual = system.energy_residual(s.t_end, y, s.y0);
+  summary.solver_stats = s.total_stats();
   // A result whose energy audit is off by more than the tolerances can
   // explain is not reported (docs/STABILITY.md: |R| ≈ 0.01–10 × rtol in sound
   // runs; fixed steps are held to the default's bound).
@@ -371,7 +467,7 @@ Summary run_case(const Case& c, const RunOptions& options) {
                   "energy audit failed at t = %.9g s: relative residual %.3g exceeds the bound "
                   "%.3g ([solver] audit_bound, default 100 x rtol, %g for a fixed step); no "
                   "result is reported. %s",
-                  t_end, summary.energy_residual, audit_bound, kFixedStepAuditBound,
+                  s.t_end, summary.energy_residual, audit_bound, kFixedStepAuditBound,
                   c.solver.step > 0 ? "Use a smaller [solver] step."
                   : c.solver.atol_velocity > 0 || c.solver.atol_displacement > 0
                       ? "Tighten [solver] rtol and the atol_* the case sets (or leave them "
@@ -379,24 +475,30 @@ Summary run_case(const Case& c, const RunOptions& options) {
                       : "Tighten [solver] rtol.");
     throw IntegrationError(msg);
   }
-  summary.wall_seconds = total_wall_seconds();
-  summary.t_end = t_end;
-  summary.average_from = t_avg;
+  summary.wall_seconds = s.total_wall_seconds();
+  summary.t_end = s.t_end;
+  summary.average_from = s.t_avg;
   summary.energy_audit_bound = audit_bound;
   summary.steady_sliding_mu = system.steady_sliding_mu();
-  summary.solver = integrator->description();
+  summary.solver = s.integrator->description();
   if (c.solver.step == 0) summary.solver.update(describe_tolerances(system, c.solver));
-  if (c.solver.method == Method::automatic) summary.solver["chosen_by"] = method.reason;
+  if (c.solver.method == Method::automatic) summary.solver["chosen_by"] = s.method.reason;
   summary.git_commit = kGitCommit;
-  summary.segments = segments;
+  summary.segments = s.segments;
   summary.sundials_version = SUNDIALS_VERSION;
   summary.case_json = to_json(c);
-  for (const auto& r : recorders) r->finish(t_end, y, summary);
-  tables->set_attribute("summary", to_json(summary).dump());
-  write_summary(dir, summary);
+  for (const auto& r : s.recorders) r->finish(s.t_end, y, summary);
+  s.tables->set_attribute("summary", to_json(summary).dump());
+  write_summary(s.dir, summary);
   // The run is complete: its checkpoint has nothing left to resume.
-  std::filesystem::remove(dir / kCheckpointFile);
+  std::filesystem::remove(s.dir / kCheckpointFile);
   return summary;
+}
+
+Summary run_case(const Case& c, const RunOptions& options) {
+  CaseRun run(c, options);
+  while (run.next_output() <= run.outputs()) run.output();
+  return run.finish();
 }
 
 }  // namespace stickslip

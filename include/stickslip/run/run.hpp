@@ -3,9 +3,12 @@
 // observables to the output directory (the Monitor of STYLE.md).
 
 #include <filesystem>
+#include <memory>
+#include <span>
 
 #include "stickslip/case/case.hpp"
 #include "stickslip/integrate/integrator.hpp"
+#include "stickslip/model/system.hpp"
 #include "stickslip/output/summary.hpp"
 
 namespace stickslip {
@@ -50,7 +53,37 @@ std::filesystem::path output_dir_for(const Case& c, const std::filesystem::path&
 
 // Runs the case and returns what it wrote to summary.json (IntegrationError
 // if the integration or its energy audit fails, OutputError for an unusable
-// output directory, Interrupted on SIGINT/SIGTERM).
+// output directory, Interrupted on SIGINT/SIGTERM). It is a CaseRun driven
+// output time by output time, then finished.
 Summary run_case(const Case& c, const RunOptions& options);
+
+// One run in its phases, for run_case and for tests that look inside it.
+//  - made: the output directory checked (or, on a restart, the checkpoint
+//    read and checked), the System, the recorders and the integrator set up,
+//    and the first row recorded;
+//  - output(): integrates to the next output time (recording the stick/slip
+//    events on the way, stopping at t_avg for μ's impulse), records that row,
+//    and checkpoints or stops as the case and the signals ask;
+//  - finish(): after the last output, the energy audit, every recorder's
+//    part, summary.json.
+// An exception from any phase leaves the rows written so far flushed.
+class CaseRun {
+ public:
+  CaseRun(const Case& c, const RunOptions& options);
+  ~CaseRun();
+  CaseRun(const CaseRun&) = delete;
+  CaseRun& operator=(const CaseRun&) = delete;
+
+  long next_output() const;  // the row output() records next: 1, 2, ..., outputs()
+  long outputs() const;      // rows after t = 0: ceil(t_end / interval)
+  void output();
+  Summary finish();
+  std::span<const double> state() const;  // at the last output time
+  const System& system() const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> s_;
+};
 
 }  // namespace stickslip
