@@ -28,6 +28,39 @@ constexpr std::array<Corner, 8> kCorners = {{
 
 }  // namespace
 
+template <class Face>
+void System::faces(int iz, Face&& face) const {
+  const std::int64_t layer = std::int64_t{nx_} * ny_;
+  for (int iy = 0; iy < ny_; ++iy)
+    for (int ix = 0; ix < nx_; ++ix) {
+      const std::int64_t i = node(ix, iy, iz);
+      face(i, node(x_next_[ix], iy, iz));
+      face(i, node(ix, y_next_[iy], iz));
+      if (iz + 1 < nz_) face(i, i + layer);
+    }
+}
+
+template <class Cell>
+void System::cells(int iz, Cell&& cell) const {
+  if (iz + 1 >= nz_) return;
+  for (int iy = 0; iy < ny_; ++iy)
+    for (int ix = 0; ix < nx_; ++ix) {
+      const int xs[2] = {ix, x_next_[ix]};
+      const int ys[2] = {iy, y_next_[iy]};
+      std::int64_t corner[8];
+      for (int c = 0; c < 8; ++c) {
+        const Corner& k = kCorners[c];
+        corner[c] = node(xs[k.dx], ys[k.dy], iz + k.dz);
+      }
+      cell(static_cast<const std::int64_t(&)[8]>(corner));
+    }
+}
+
+template <class Driven>
+void System::driven(Driven&& node_tied) const {
+  for (std::int64_t n = node(0, 0, nz_ - 1); n < n_; ++n) node_tied(n);
+}
+
 System::System(const Case& c, std::vector<Contact> contacts)
     : nx_(c.lattice.nx),
       ny_(c.lattice.ny),
@@ -117,14 +150,10 @@ void System::lattice_accelerations(double t, std::span<const double> u_in,
     }
   };
   // Cells: U_c = (k2/2) D_c², D_c = ¼ Σ_corners s·u, so F_corner = −k2 D_c ¼ s.
-  auto cell = [&](int ix, int iy, int iz) {
-    const int xs[2] = {ix, x_next_[ix]};
-    const int ys[2] = {iy, y_next_[iy]};
-    std::int64_t corner[8];
+  auto cell = [&](const std::int64_t(&corner)[8]) {
     double d = 0.0;
     for (int c = 0; c < 8; ++c) {
       const Corner& k = kCorners[c];
-      corner[c] = node(xs[k.dx], ys[k.dy], iz + k.dz);
       const double* uc = u + 3 * corner[c];
       d += k.sx * uc[0] + k.sy * uc[1] + k.sz * uc[2];
     }
@@ -141,16 +170,8 @@ void System::lattice_accelerations(double t, std::span<const double> u_in,
   // odd ones (threads > 1). Every entry receives its terms in the same order
   // whatever the number of threads: results do not depend on it.
   auto layer = [&](int iz) {
-    for (int iy = 0; iy < ny_; ++iy)
-      for (int ix = 0; ix < nx_; ++ix) {
-        const std::int64_t i = node(ix, iy, iz);
-        face(i, node(x_next_[ix], iy, iz));
-        face(i, node(ix, y_next_[iy], iz));
-        if (iz + 1 < nz_) face(i, i + std::int64_t{nx_} * ny_);
-      }
-    if (iz + 1 < nz_)
-      for (int iy = 0; iy < ny_; ++iy)
-        for (int ix = 0; ix < nx_; ++ix) cell(ix, iy, iz);
+    faces(iz, face);
+    cells(iz, cell);
   };
   // The serial loop is kept apart from the OpenMP one: outlined for OpenMP,
   // even with its `if` false, the loop ran 15–30 % slower.
@@ -166,11 +187,11 @@ void System::lattice_accelerations(double t, std::span<const double> u_in,
   // Drive springs and dashpots to the plate moving at (v, 0, 0) (§5).
   const double kd = kd_over_m_;
   const double anchor = v_ * t;
-  for (std::int64_t n = node(0, 0, nz_ - 1); n < n_; ++n) {
+  driven([&](std::int64_t n) {
     acc[3 * n + 0] += kd * (anchor - u[3 * n + 0]) + eta * (v_ - w[3 * n + 0]);
     acc[3 * n + 1] += -kd * u[3 * n + 1] - eta * w[3 * n + 1];
     acc[3 * n + 2] += -kd * u[3 * n + 2] - eta * w[3 * n + 2];
-  }
+  });
 }
 
 void System::add_contact_accelerations(std::span<const double> y, std::span<double> ydot) const {
@@ -229,37 +250,27 @@ SparseJacobian System::jacobian_pattern(JacobianPart part) const {
           t.emplace_back(w_index(j, k), offset + 3 * j + k, -coef);
         }
     };
-    for (int iz = 0; iz < nz_; ++iz)
-      for (int iy = 0; iy < ny_; ++iy)
-        for (int ix = 0; ix < nx_; ++ix) {
-          const std::int64_t i = node(ix, iy, iz);
-          face(i, node(x_next_[ix], iy, iz));
-          face(i, node(ix, y_next_[iy], iz));
-          if (iz + 1 < nz_) face(i, node(ix, iy, iz + 1));
-        }
+    for (int iz = 0; iz < nz_; ++iz) faces(iz, face);
     // Cells: ∂a_c/∂u_d = −(k2/16) s_c s_dᵀ.
-    for (int iz = 0; iz + 1 < nz_; ++iz)
-      for (int iy = 0; iy < ny_; ++iy)
-        for (int ix = 0; ix < nx_; ++ix) {
-          const int xs[2] = {ix, x_next_[ix]};
-          const int ys[2] = {iy, y_next_[iy]};
-          for (const Corner& c : kCorners)
-            for (const Corner& d : kCorners) {
-              const std::int64_t nc = node(xs[c.dx], ys[c.dy], iz + c.dz);
-              const std::int64_t nd = node(xs[d.dx], ys[d.dy], iz + d.dz);
-              const double sc[3] = {c.sx, c.sy, c.sz}, sd[3] = {d.sx, d.sy, d.sz};
-              for (int k = 0; k < 3; ++k)
-                for (int l = 0; l < 3; ++l)
-                  t.emplace_back(w_index(nc, k), u_index(nd, l),
-                                 -k2_over_m_ * 0.0625 * sc[k] * sd[l]);
-            }
-        }
+    for (int iz = 0; iz < nz_; ++iz)
+      cells(iz, [&](const std::int64_t(&corner)[8]) {
+        for (int ci = 0; ci < 8; ++ci)
+          for (int di = 0; di < 8; ++di) {
+            const Corner &c = kCorners[ci], &d = kCorners[di];
+            const double sc[3] = {c.sx, c.sy, c.sz}, sd[3] = {d.sx, d.sy, d.sz};
+            for (int k = 0; k < 3; ++k)
+              for (int l = 0; l < 3; ++l)
+                t.emplace_back(w_index(corner[ci], k), u_index(corner[di], l),
+                               -k2_over_m_ * 0.0625 * sc[k] * sd[l]);
+          }
+      });
     // Drive.
-    for (std::int64_t n = node(0, 0, nz_ - 1); n < n_; ++n)
+    driven([&](std::int64_t n) {
       for (int k = 0; k < 3; ++k) {
         t.emplace_back(w_index(n, k), u_index(n, k), -kd_over_m_);
         t.emplace_back(w_index(n, k), w_index(n, k), -eta_);
       }
+    });
   }
   Eigen::SparseMatrix<double, Eigen::RowMajor, std::int64_t> m(size, size);
   m.setFromTriplets(t.begin(), t.end());
@@ -407,27 +418,20 @@ double System::power_in(double t, std::span<const double> y) const {
 
 double System::lattice_dissipation(std::span<const double> y) const {
   const double* w = y.data() + 3 * n_;
-  double faces = 0.0;
+  double face_sum = 0.0;
   auto face = [&](std::int64_t i, std::int64_t j) {
     for (int k = 0; k < 3; ++k) {
       const double d = w[3 * j + k] - w[3 * i + k];
-      faces += d * d;
+      face_sum += d * d;
     }
   };
-  for (int iz = 0; iz < nz_; ++iz)
-    for (int iy = 0; iy < ny_; ++iy)
-      for (int ix = 0; ix < nx_; ++ix) {
-        const std::int64_t i = node(ix, iy, iz);
-        face(i, node(x_next_[ix], iy, iz));
-        face(i, node(ix, y_next_[iy], iz));
-        if (iz + 1 < nz_) face(i, node(ix, iy, iz + 1));
-      }
+  for (int iz = 0; iz < nz_; ++iz) faces(iz, face);
   double drive = 0.0;
-  for (std::int64_t n = node(0, 0, nz_ - 1); n < n_; ++n) {
+  driven([&](std::int64_t n) {
     const double dx = v_ - w[3 * n], dy = w[3 * n + 1], dz = w[3 * n + 2];
     drive += dx * dx + dy * dy + dz * dz;
-  }
-  return mass_ * eta_ * (faces + drive);
+  });
+  return mass_ * eta_ * (face_sum + drive);
 }
 
 // ε f0 φ |s| + m η_c |s|² = −m a·s for each contact.
@@ -452,42 +456,33 @@ EnergyTerms System::energy(double t, std::span<const double> y) const {
   for (std::int64_t r = 0; r < 3 * n_; ++r) e.kinetic += w[r] * w[r];
   e.kinetic *= 0.5 * mass_;
 
-  double faces = 0.0, cells = 0.0;
+  double face_sum = 0.0, cell_sum = 0.0;
   auto face = [&](std::int64_t i, std::int64_t j) {
     for (int k = 0; k < 3; ++k) {
       const double d = u[3 * j + k] - u[3 * i + k];
-      faces += d * d;
+      face_sum += d * d;
     }
   };
+  for (int iz = 0; iz < nz_; ++iz) faces(iz, face);
   for (int iz = 0; iz < nz_; ++iz)
-    for (int iy = 0; iy < ny_; ++iy)
-      for (int ix = 0; ix < nx_; ++ix) {
-        const std::int64_t i = node(ix, iy, iz);
-        face(i, node(x_next_[ix], iy, iz));
-        face(i, node(ix, y_next_[iy], iz));
-        if (iz + 1 < nz_) face(i, node(ix, iy, iz + 1));
+    cells(iz, [&](const std::int64_t(&corner)[8]) {
+      double d = 0.0;
+      for (int c = 0; c < 8; ++c) {
+        const Corner& k = kCorners[c];
+        const double* uc = u + 3 * corner[c];
+        d += k.sx * uc[0] + k.sy * uc[1] + k.sz * uc[2];
       }
-  for (int iz = 0; iz + 1 < nz_; ++iz)
-    for (int iy = 0; iy < ny_; ++iy)
-      for (int ix = 0; ix < nx_; ++ix) {
-        const int xs[2] = {ix, x_next_[ix]};
-        const int ys[2] = {iy, y_next_[iy]};
-        double d = 0.0;
-        for (const Corner& k : kCorners) {
-          const double* uc = u + 3 * node(xs[k.dx], ys[k.dy], iz + k.dz);
-          d += k.sx * uc[0] + k.sy * uc[1] + k.sz * uc[2];
-        }
-        d *= 0.25;
-        cells += d * d;
-      }
-  e.elastic = 0.5 * mass_ * (k1_over_m_ * faces + k2_over_m_ * cells);
+      d *= 0.25;
+      cell_sum += d * d;
+    });
+  e.elastic = 0.5 * mass_ * (k1_over_m_ * face_sum + k2_over_m_ * cell_sum);
 
   const double anchor = v_ * t;
   double spring = 0.0;
-  for (std::int64_t n = node(0, 0, nz_ - 1); n < n_; ++n) {
+  driven([&](std::int64_t n) {
     const double dx = anchor - u[3 * n], dy = u[3 * n + 1], dz = u[3 * n + 2];
     spring += dx * dx + dy * dy + dz * dz;
-  }
+  });
   e.drive = 0.5 * mass_ * kd_over_m_ * spring;
   return e;
 }

@@ -218,6 +218,22 @@ class System {
   double lattice_dissipation(std::span<const double> y) const;
   double contact_dissipation(std::span<const double> y) const;
 
+  // The lattice's springs and dashpots (MODEL.md §3, §5), described once:
+  // the forces, the Jacobian, the dissipation and the energy all walk the
+  // lattice through these, in this order (system.cpp). A new lattice term is
+  // a change here and in the per-term lambdas of those four.
+  //  - faces(iz, f): f(i, j) for every face of layer iz, node by node (iy
+  //    slowest), its +x, +y and (below the top) +z neighbour j of node i;
+  //  - cells(iz, f): f(corner) for every cell between layers iz and iz + 1,
+  //    corner[8] its nodes in kCorners' order (system.cpp); none in the top layer;
+  //  - driven(f): f(n) for every node of the top layer, tied to the plate.
+  template <class Face>
+  void faces(int iz, Face&& face) const;
+  template <class Cell>
+  void cells(int iz, Cell&& cell) const;
+  template <class Driven>
+  void driven(Driven&& node_tied) const;
+
   int nx_, ny_, nz_;
   std::int64_t n_;
   double a_, mass_, g1_, g2_;
