@@ -84,7 +84,12 @@ inline std::span<double> as_span(N_Vector v) {
 // The exception boundary: runs `body` inside a C callback. Returns 0 on
 // success; on a C++ exception stores it in `slot` (rethrown by the adapter
 // after the SUNDIALS call returns) and returns −1, so no exception ever
-// crosses a SUNDIALS frame.
+// crosses a SUNDIALS frame. It never returns 1 (recoverable): the failures a
+// smaller step cures are stage solves that do not converge or are refused,
+// and those return SUN_NLS_CONV_RECVR from the stage solver
+// (exact_stage_solver.cpp). The right-hand side, the roots and the Jacobian
+// are defined at every finite state, and a state that is not finite is a
+// failed run (run.cpp), not a step to retry.
 
 template <class Body>
 int guarded(std::exception_ptr& slot, Body&& body) noexcept {
