@@ -227,11 +227,17 @@ def test_load_reads_a_running_run_up_to_its_last_whole_row(pair_file, tmp_path):
 
 def test_runs_pickle_for_process_pools(pair_file):
     import pickle
+    from concurrent.futures import ProcessPoolExecutor
 
-    run = stickslip.run(stickslip.Case.from_toml(pair_file).replace({"run.t_end": 4e-4, "run.average_from": 1e-4}))
+    case = stickslip.Case.from_toml(pair_file).replace({"run.t_end": 4e-4, "run.average_from": 1e-4})
+    run = stickslip.run(case)
     back = pickle.loads(pickle.dumps(run))
     assert back.mu == run.mu
     np.testing.assert_array_equal(back.traces.vx, run.traces.vx)
+    with ProcessPoolExecutor(max_workers=1) as pool:  # the case crosses to a worker, the run back
+        elsewhere = pool.submit(stickslip.run, case).result()
+    assert elsewhere.mu == run.mu
+    np.testing.assert_array_equal(elsewhere.traces.vx, run.traces.vx)
     stop = pickle.loads(pickle.dumps(stickslip.Interrupted(2, 1e-4, None)))
     assert isinstance(stop, KeyboardInterrupt) and stop.t == 1e-4 and str(stop).startswith("interrupted at")
 
