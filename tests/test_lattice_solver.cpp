@@ -196,6 +196,41 @@ TEST_CASE(
   }
 }
 
+TEST_CASE("convolving a bottom-layer field by FFT gives the sum over the Green's function",
+          "[lattice_solver]") {
+  for (const Shape& shape : kShapes) {
+    const System s = make_system(shape.nx, shape.ny, shape.nz, {});
+    LatticeSolver solver(s);
+    solver.set_gamma(1e-6);
+    const auto field = solver.surface_field();
+    const std::size_t layer = static_cast<std::size_t>(shape.nx * shape.ny);
+    REQUIRE(field.size() == 2 * layer);
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+    std::vector<double> source(field.size());
+    for (double& v : source) v = uniform(rng);
+    std::copy(source.begin(), source.end(), field.begin());
+    solver.convolve_surface();
+    double worst = 0.0, scale = 0.0;
+    for (int ix = 0; ix < shape.nx; ++ix)
+      for (int iy = 0; iy < shape.ny; ++iy)
+        for (int a = 0; a < 2; ++a) {
+          double sum = 0.0;
+          for (int jx = 0; jx < shape.nx; ++jx)
+            for (int jy = 0; jy < shape.ny; ++jy)
+              for (int b = 0; b < 2; ++b)
+                sum += solver.green(ix - jx, iy - jy, a, b) *
+                       source[b * layer + static_cast<std::size_t>(jx + shape.nx * jy)];
+          const double fft = field[a * layer + static_cast<std::size_t>(ix + shape.nx * iy)];
+          worst = std::max(worst, std::abs(fft - sum));
+          scale = std::max(scale, std::abs(sum));
+        }
+    INFO(shape.nx << "x" << shape.ny << "x" << shape.nz);
+    CHECK(scale > 0.0);
+    CHECK(worst < 1e-12 * scale);
+  }
+}
+
 TEST_CASE("a stage with contacts is solved exactly: a direct Newton step from it changes nothing",
           "[lattice_solver]") {
   struct Layout {

@@ -34,9 +34,10 @@ std::mutex& planner_mutex() {
 // algorithm on every run, so results are reproducible bit for bit.
 struct LatticeSolver::Plans {
   fftw_plan forward = nullptr, backward = nullptr, green = nullptr;
+  fftw_plan surface_forward = nullptr, surface_backward = nullptr;
   ~Plans() {
     const std::lock_guard lock(planner_mutex());
-    for (fftw_plan p : {forward, backward, green})
+    for (fftw_plan p : {forward, backward, green, surface_forward, surface_backward})
       if (p) fftw_destroy_plan(p);
   }
 };
@@ -69,8 +70,23 @@ LatticeSolver::LatticeSolver(const System& system)
   const fftw_iodim green_many[1] = {{4, 1, nx_ * ny_}};
   plans_->green = fftw_plan_guru_dft_c2r(
       2, green_dims, 1, green_many, as_fftw(green_spectrum_.data()), green_.data(), FFTW_ESTIMATE);
+  // A bottom-layer field of two components, [a][iy][ix] ↔ [a][mode].
+  surface_green_.resize(green_spectrum_.size());
+  surface_spectrum_.resize(static_cast<std::size_t>(2 * modes_));
+  surface_field_.resize(static_cast<std::size_t>(2 * nx_ * ny_));
+  const fftw_iodim surface_real[2] = {{ny_, nx_, nkx}, {nx_, 1, 1}};
+  const fftw_iodim surface_real_many[1] = {{2, nx_ * ny_, static_cast<int>(modes_)}};
+  plans_->surface_forward =
+      fftw_plan_guru_dft_r2c(2, surface_real, 1, surface_real_many, surface_field_.data(),
+                             as_fftw(surface_spectrum_.data()), FFTW_ESTIMATE);
+  const fftw_iodim surface_spec[2] = {{ny_, nkx, nx_}, {nx_, 1, 1}};
+  const fftw_iodim surface_spec_many[1] = {{2, static_cast<int>(modes_), nx_ * ny_}};
+  plans_->surface_backward = fftw_plan_guru_dft_c2r(2, surface_spec, 1, surface_spec_many,
+                                                    as_fftw(surface_spectrum_.data()),
+                                                    surface_field_.data(), FFTW_ESTIMATE);
   lock.unlock();
-  if (!plans_->forward || !plans_->backward || !plans_->green)
+  if (!plans_->forward || !plans_->backward || !plans_->green || !plans_->surface_forward ||
+      !plans_->surface_backward)
     throw std::runtime_error("FFTW could not plan the lattice transforms");
 
   const std::size_t blocks = static_cast<std::size_t>(9 * nz_ * modes_);
@@ -138,9 +154,25 @@ void LatticeSolver::set_gamma(double gamma) {
       solve_mode(m, x.data());
       for (int a = 0; a < 2; ++a) green_spectrum_[4 * m + 2 * a + b] = x[a];
     }
-  fftw_execute(plans_->green);  // overwrites green_spectrum_
   const double norm = 1.0 / (static_cast<double>(nx_) * ny_);
+  for (std::size_t i = 0; i < green_spectrum_.size(); ++i)
+    surface_green_[i] = green_spectrum_[i] * norm;
+  fftw_execute(plans_->green);  // overwrites green_spectrum_
   for (double& g : green_) g *= norm;
+}
+
+void LatticeSolver::convolve_surface() {
+  if (gamma_ < 0.0) throw std::logic_error("LatticeSolver::convolve_surface before set_gamma");
+  fftw_execute(plans_->surface_forward);
+  Complex* fx = surface_spectrum_.data();
+  Complex* fy = fx + modes_;
+  for (std::int64_t m = 0; m < modes_; ++m) {
+    const Complex* g = &surface_green_[4 * m];
+    const Complex x = fx[m], y = fy[m];
+    fx[m] = g[0] * x + g[1] * y;
+    fy[m] = g[2] * x + g[3] * y;
+  }
+  fftw_execute(plans_->surface_backward);  // overwrites the spectrum, scratch
 }
 
 // Block LDLᴴ of the Hermitian block-tridiagonal M̂ = I + γ Ĉ + γ² K̂:

@@ -41,11 +41,11 @@ LatticeStageSolver::LatticeStageSolver(const System& system, double max_gamma_la
     for (std::size_t j = 0; j < sites_; ++j)
       site_offset_.push_back(
           lattice_.wrapped_offset(sites[i].ix - sites[j].ix, sites[i].iy - sites[j].iy));
+  for (std::size_t i = 0; i < sites_; ++i)
+    site_surface_.push_back(sites[i].ix + std::int64_t{system.nx()} * sites[i].iy);
   const auto n = static_cast<Eigen::Index>(2 * sites_);
-  coupling_.resize(n, n);
-  jacobian_.resize(n, n);
-  for (auto* v : {&free_speed_, &beta_, &sigma_, &residual_, &trial_, &step_}) v->resize(n);
-  jacobian_lu_ = Eigen::PartialPivLU<Eigen::MatrixXd>(n);
+  for (auto* v : {&free_speed_, &beta_, &sigma_, &residual_, &trial_, &step_, &product_})
+    v->resize(n);
   stages_.resize(sites_);
   predicted_speed_.resize(sites_);
   // Eigen's LU runs its block updates on every OpenMP thread by default; on
@@ -60,16 +60,25 @@ void LatticeStageSolver::set_gamma(double gamma) {
   if (gamma == gamma_) return;
   gamma_ = gamma;
   self_green_ = 0.5 * (lattice_.green(0, 0, 0, 0) + lattice_.green(0, 0, 1, 1));
-  // N_c² lookups at every new γ: offsets wrapped once, in the constructor
-  // (the wrapping's integer divisions were 9 % of a Fig. 9 block slip).
-  for (std::size_t i = 0; i < sites_; ++i)
-    for (std::size_t j = 0; j < sites_; ++j) {
-      const std::int64_t offset = site_offset_[i * sites_ + j];
-      for (int a = 0; a < 2; ++a)
-        for (int b = 0; b < 2; ++b)
-          coupling_(2 * i + a, 2 * j + b) =
-              lattice_.green_wrapped(offset, a, b) / self_green_ - (i == j && a == b ? 1.0 : 0.0);
-    }
+}
+
+// out = H x = P G Pᵀ x / ḡ − x by FFT over the bottom layer (LatticeSolver::
+// convolve_surface): N_c contacts cost one 2D transform of the layer, not the
+// N_c² products of H as a matrix (≈ 80 % of a 60×60×10 run at θ = 0.5 when
+// they were: 103 MB of H read at every Newton iteration).
+void LatticeStageSolver::apply_coupling(const Eigen::VectorXd& x, Eigen::VectorXd& out) {
+  const auto field = lattice_.surface_field();
+  const std::size_t layer = field.size() / 2;
+  std::fill(field.begin(), field.end(), 0.0);
+  for (std::size_t i = 0; i < sites_; ++i) {
+    field[site_surface_[i]] = x(2 * i);
+    field[layer + site_surface_[i]] = x(2 * i + 1);
+  }
+  lattice_.convolve_surface();
+  for (std::size_t i = 0; i < sites_; ++i) {
+    out(2 * i) = field[site_surface_[i]] / self_green_ - x(2 * i);
+    out(2 * i + 1) = field[layer + site_surface_[i]] / self_green_ - x(2 * i + 1);
+  }
 }
 
 long LatticeStageSolver::solve(double t, double gamma, std::span<const double> predictor,
@@ -115,18 +124,33 @@ long LatticeStageSolver::solve(double t, double gamma, std::span<const double> p
   return iterations;
 }
 
-// ∂F/∂β = I + H − H E at the β whose ∂Σ/∂β are in stages_, factorized.
+// ∂F/∂β = I + H − H E at the β whose ∂Σ/∂β are in stages_, factorized in
+// place (one 2 N_c × 2 N_c matrix: 1.6 GB at 7 171 contacts). H's entries
+// are the Green's function's, looked up (offsets wrapped once, in the
+// constructor: the wrapping's integer divisions were 9 % of a Fig. 9 block
+// slip when H was refilled at every γ).
 void LatticeStageSolver::factorize_jacobian() {
-  jacobian_ = coupling_;
+  const auto n = static_cast<Eigen::Index>(2 * sites_);
+  jacobian_lu_.reset();
+  jacobian_.resize(n, n);
   for (std::size_t j = 0; j < sites_; ++j) {
     const auto& e = stages_[j].ds_db;
     const auto c0 = static_cast<Eigen::Index>(2 * j), c1 = c0 + 1;
-    jacobian_.col(c0).noalias() -= coupling_.col(c0) * e[0] + coupling_.col(c1) * e[2];
-    jacobian_.col(c1).noalias() -= coupling_.col(c0) * e[1] + coupling_.col(c1) * e[3];
+    for (std::size_t i = 0; i < sites_; ++i) {
+      const std::int64_t offset = site_offset_[i * sites_ + j];
+      for (int a = 0; a < 2; ++a) {
+        const double diagonal = i == j ? 1.0 : 0.0;
+        const double h0 =
+            lattice_.green_wrapped(offset, a, 0) / self_green_ - (a == 0 ? diagonal : 0.0);
+        const double h1 =
+            lattice_.green_wrapped(offset, a, 1) / self_green_ - (a == 1 ? diagonal : 0.0);
+        const auto r = static_cast<Eigen::Index>(2 * i + a);
+        jacobian_(r, c0) = h0 - (h0 * e[0] + h1 * e[2]) + (a == 0 ? diagonal : 0.0);
+        jacobian_(r, c1) = h1 - (h0 * e[1] + h1 * e[3]) + (a == 1 ? diagonal : 0.0);
+      }
+    }
   }
-  jacobian_.diagonal().array() += 1.0;
-  jacobian_lu_.compute(jacobian_);
-  jacobian_valid_ = true;
+  jacobian_lu_.emplace(jacobian_);
   ++factorizations_;
 }
 
@@ -156,7 +180,9 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
       sigma_(2 * i) = stages_[i].s[0];
       sigma_(2 * i + 1) = stages_[i].s[1];
     }
-    residual_ = beta - free_speed_ - coupling_ * (sigma_ - beta);
+    trial_force_ = sigma_ - beta;
+    apply_coupling(trial_force_, product_);
+    residual_ = beta - free_speed_ - product_;
     double norm = 0.0;
     for (std::size_t i = 0; i < sites_; ++i)
       for (int k = 0; k < 2; ++k)
@@ -170,7 +196,8 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
     trial_(2 * i) = gamma_self * a[0];
     trial_(2 * i + 1) = gamma_self * a[1];
   }
-  beta_ = free_speed_ + coupling_ * trial_;
+  apply_coupling(trial_, product_);
+  beta_ = free_speed_ + product_;
   double norm = evaluate(beta_);
   // Modified Newton: the factorized Jacobian is kept across iterations,
   // stages, steps and changes of γ while its contraction finishes the solve
@@ -180,11 +207,11 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
   for (int it = 0; it < kMaxIterations; ++it) {
     if (!std::isfinite(norm)) break;
     if (norm <= kTolerance) return it;
-    if (!jacobian_valid_) {
+    if (!jacobian_lu_) {
       factorize_jacobian();
       fresh = true;
     }
-    step_ = jacobian_lu_.solve(-residual_);
+    step_ = jacobian_lu_->solve(-residual_);
     // Backtrack while the residual grows (the velocity-weakening branch).
     double fraction = 1.0, trial_norm = 0.0;
     for (;;) {
@@ -196,7 +223,7 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
     if (!(trial_norm < norm)) {
       if (!fresh) {  // an old Jacobian: rebuild it at the better point, try again
         evaluate(beta_);
-        jacobian_valid_ = false;
+        jacobian_lu_.reset();
         continue;
       }
       if (norm <= kStagnated) {  // rounding, not divergence
@@ -205,15 +232,14 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
       }
       // A fresh Jacobian and still no decrease: take the damped step anyway
       // (as before the Jacobian was kept), the next iteration rebuilds at it.
-      jacobian_valid_ = false;
+      jacobian_lu_.reset();
     }
     // A slow contraction with an old Jacobian: rebuild it at the new point
     // if finishing at this rate would cost more than the rebuild.
     if (!fresh && trial_norm > kTolerance) {
       const double rate = trial_norm / norm;
       const double remaining = std::log(kTolerance / trial_norm) / std::log(rate);
-      if (remaining > lu_in_iterations || it + 1 + remaining > kMaxIterations)
-        jacobian_valid_ = false;
+      if (remaining > lu_in_iterations || it + 1 + remaining > kMaxIterations) jacobian_lu_.reset();
     }
     beta_ = trial_;
     norm = trial_norm;

@@ -18,7 +18,9 @@
 //
 // The bottom layer's Green's function (M⁻¹ between the in-plane velocities of
 // two bottom nodes) depends only on their offset; one inverse FFT per γ gives
-// it for every offset (`green`).
+// it for every offset (`green`), and multiplying by its spectrum applies it
+// to a whole in-plane field of the bottom layer at FFT cost
+// (`convolve_surface`): what the contacts' stage solve multiplies by most.
 
 #include <complex>
 #include <cstdint>
@@ -60,6 +62,15 @@ class LatticeSolver {
     return ((dx % nx_) + nx_) % nx_ + std::int64_t{nx_} * (((dy % ny_) + ny_) % ny_);
   }
 
+  // A field on the bottom layer's in-plane components, 2 Nx Ny values laid
+  // out [component][iy][ix] (component b of node (ix, iy) at
+  // b Nx Ny + ix + Nx iy), and its convolution with the Green's function in
+  // place: field_a(x) ← Σ_{b, y} green(x − y, a, b) field_b(y), the in-plane
+  // velocities that in-plane forces `field` give through M(γ)⁻¹. The same
+  // sum as green's, by FFT.
+  std::span<double> surface_field() { return surface_field_; }
+  void convolve_surface();
+
   long factorizations() const { return factorizations_; }
   long solves() const { return solves_; }
 
@@ -85,6 +96,11 @@ class LatticeSolver {
   std::vector<Complex> s_inv_, upper_, multiplier_;
   std::vector<double> green_;            // [a][b][iy][ix]
   std::vector<Complex> green_spectrum_;  // [mode][a][b]
+  // The same for convolve_surface, kept (the Green's transform overwrites
+  // green_spectrum_) and scaled by 1/(Nx Ny); its field's half spectrum.
+  std::vector<Complex> surface_green_;     // [mode][a][b]
+  std::vector<Complex> surface_spectrum_;  // [component][mode]
+  std::vector<double> surface_field_;
   // FFT buffers: the velocity field (3N reals) and its half spectrum laid out
   // [mode][layer][component], so each mode's system is contiguous.
   std::vector<double> real_;

@@ -12,6 +12,7 @@
 // solves (LatticeSolver) per stage; nothing here knows of SUNDIALS.
 
 #include <Eigen/Dense>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -47,6 +48,7 @@ class LatticeStageSolver {
   void set_gamma(double gamma);
   long solve_contacts(std::span<const double> predictor, std::span<const double> weights);
   void factorize_jacobian();
+  void apply_coupling(const Eigen::VectorXd& x, Eigen::VectorXd& out);
 
   const System& system_;
   double max_gamma_lambda_;
@@ -56,19 +58,20 @@ class LatticeStageSolver {
   std::vector<std::int64_t> site_w_;  // state index of each friction site's w^x
   // Site i's offset from site j, wrapped, as LatticeSolver::green_wrapped takes it.
   std::vector<std::int64_t> site_offset_;  // [i][j]
+  // Each site's node in the bottom layer, ix + Nx iy (LatticeSolver::surface_field).
+  std::vector<std::int64_t> site_surface_;
   // For the γ last seen: the bottom layer's self Green's function ḡ (the
-  // mean of its xx and yy entries) and the coupling H = (G − ḡ I)/ḡ between
-  // the contacts' velocities (2 N_c × 2 N_c).
+  // mean of its xx and yy entries), which scales the coupling
+  // H = (G − ḡ I)/ḡ between the contacts' velocities (2 N_c × 2 N_c).
   double gamma_ = -1.0;
   double self_green_ = 0.0;
-  Eigen::MatrixXd coupling_;
   // Scratch.
   std::vector<double> zero_, acc_, correction_;
-  Eigen::VectorXd free_speed_, beta_, sigma_, residual_, trial_, step_;
-  // The contacts' Newton matrix, factorized (for a γ and β since passed).
+  Eigen::VectorXd free_speed_, beta_, sigma_, residual_, trial_, step_, product_, trial_force_;
+  // The contacts' Newton matrix, factorized in place in jacobian_ (for a γ
+  // and β since passed); empty when it is to be rebuilt.
   Eigen::MatrixXd jacobian_;
-  Eigen::PartialPivLU<Eigen::MatrixXd> jacobian_lu_;
-  bool jacobian_valid_ = false;
+  std::optional<Eigen::PartialPivLU<Eigen::Ref<Eigen::MatrixXd>>> jacobian_lu_;
   long factorizations_ = 0;
   std::vector<ContactStage> stages_;
   std::vector<double> predicted_speed_;
