@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "sandbox.hpp"
+#include "stickslip/case/reader.hpp"
+#include "stickslip/output/checkpoint.hpp"
 #include "stickslip/output/recorder.hpp"
 
 namespace fs = std::filesystem;
@@ -241,4 +243,43 @@ TEST_CASE("a rerun with --overwrite leaves no stale output of any kind", "[cli]"
     REQUIRE(r.code == 0);
     CHECK((!fs::exists(out / name) || slurp(out / name) != "stale\n"));
   }
+}
+
+TEST_CASE(
+    "a run gives the same files on 1 and 2 threads, says how many it used, and continues on "
+    "either",
+    "[cli][threads]") {
+  Sandbox box;
+  // 50 contacts on 10×10×3 under dirk: the contacts' coupled solve with its
+  // LU, the lattice's modes and the contacts' stages all split over threads.
+  const fs::path file = box.write("many.toml",
+                                  "[lattice]\nnx = 10\nny = 10\nnz = 3\n"
+                                  "[interface]\ncoverage = 0.5\nseed = 4\n"
+                                  "[run]\nt_end = 1e-4\naverage_from = 2e-5\n"
+                                  "[solver]\nmethod = \"dirk\"\nrtol = 1e-5\n"
+                                  "[output]\ninterval = 2e-6\ntraces = \"all\"\n");
+  std::vector<nlohmann::json> summaries;
+  for (const char* threads : {"1", "2"}) {
+    const fs::path out = box.work / (std::string("threads_") + threads);
+    const Result r =
+        box.run({"run", file.string(), "--out", out.string(), "--quiet", "--threads", threads});
+    INFO("stderr: " << r.err);
+    REQUIRE(r.code == 0);
+    summaries.push_back(nlohmann::json::parse(slurp(out / "summary.json")));
+    CHECK(summaries.back()["solver"]["threads"] == std::stoi(threads));
+  }
+  CHECK(summaries[0]["contacts"].get<int>() > 40);
+  CHECK(summaries[0]["solver_stats"]["newton_iterations"].get<long>() > 0);
+  CHECK(summaries[0]["solver_stats"] == summaries[1]["solver_stats"]);
+  CHECK(summaries[0]["mu"] == summaries[1]["mu"]);
+  CHECK(summaries[0]["energy_residual"] == summaries[1]["energy_residual"]);
+  for (const char* table : {"friction.csv", "traces.csv", "events.csv"})
+    CHECK(slurp(box.work / "threads_1" / table) == slurp(box.work / "threads_2" / table));
+
+  // The thread count is no part of what a restart must match.
+  const stickslip::Case then = stickslip::read_case(file.string(), {"solver.threads=2"});
+  const stickslip::Case now = stickslip::read_case(file.string(), {"solver.threads=1"});
+  CHECK(stickslip::same_case(stickslip::to_json(then), now));
+  const stickslip::Case other = stickslip::read_case(file.string(), {"solver.rtol=1e-6"});
+  CHECK_FALSE(stickslip::same_case(stickslip::to_json(then), other));
 }

@@ -66,10 +66,12 @@ Eigen::VectorXd direct_solve(const SparseMatrix& m, const Eigen::VectorXd& rhs) 
   return lu.solve(rhs);
 }
 
-System make_system(int nx, int ny, int nz, std::vector<Contact> contacts, int patch = 1) {
+System make_system(int nx, int ny, int nz, std::vector<Contact> contacts, int patch = 1,
+                   int threads = 1) {
   Case c;
   c.lattice = {nx, ny, nz, 1e-4};
   c.interface.patch = patch;
+  c.solver.threads = threads;
   return System(c, std::move(contacts));
 }
 
@@ -333,4 +335,51 @@ TEST_CASE(
   }
   CHECK(refused > 0);  // both sides of the limit were tried
   CHECK(solved > 0);
+}
+
+TEST_CASE("a stage with many contacts gives the same bits on 1, 2 and 3 threads",
+          "[lattice_solver][threads]") {
+  // 40 contacts on 12×10×3, from rest to fast slip: the Newton iteration on
+  // their coupled speeds runs, with an LU, and each thread count splits the
+  // contacts, the lattice's modes and the Newton matrix's columns its own way.
+  std::vector<Contact> contacts;
+  std::mt19937 rng(3);
+  std::vector<bool> taken(120, false);
+  while (contacts.size() < 40) {
+    const int site = static_cast<int>(rng() % 120);
+    if (taken[static_cast<std::size_t>(site)]) continue;
+    taken[static_cast<std::size_t>(site)] = true;
+    contacts.push_back(
+        {site % 12, site / 12, 4e-4 + 1e-4 * static_cast<double>(contacts.size() % 7)});
+  }
+  std::vector<std::vector<double>> results;
+  std::vector<long> iterations;
+  for (int threads : {1, 2, 3}) {
+    const System s = make_system(12, 10, 3, contacts, 1, threads);
+    REQUIRE(s.threads() == threads);
+    LatticeStageSolver solver(s, std::numeric_limits<double>::infinity());
+    std::vector<double> b = random_state(s, 5);
+    const double speeds[3][2] = {{3e-9, 1e-9}, {-4e-3, 1e-3}, {5e-2, -2e-2}};
+    for (std::size_t k = 0; k < s.sites().size(); ++k) {
+      b[s.w_index(s.sites()[k].node, 0)] = speeds[k % 3][0];
+      b[s.w_index(s.sites()[k].node, 1)] = speeds[k % 3][1];
+    }
+    std::vector<double> weights(b.size());
+    for (std::size_t i = 0; i < b.size(); ++i) weights[i] = 1.0 / (1e-6 * std::abs(b[i]) + 1e-9);
+    long its = 0;
+    std::vector<double> z;
+    for (double gamma : {1e-7, 3e-6}) {  // two γ: the lattice refactorized, the LU kept or rebuilt
+      z = b;
+      its += solver.solve(1e-4, gamma, b, weights, z);
+      results.push_back(z);
+    }
+    iterations.push_back(its);
+  }
+  CHECK(iterations[0] > 2);  // Newton iterated: the coupled solve was exercised
+  for (std::size_t k = 2; k < results.size(); ++k) {
+    INFO("run " << k / 2 + 1 << " threads, gamma " << (k % 2 ? 3e-6 : 1e-7));
+    CHECK(results[k] == results[k % 2]);  // bit for bit
+  }
+  CHECK(iterations[1] == iterations[0]);
+  CHECK(iterations[2] == iterations[0]);
 }

@@ -161,7 +161,9 @@ def run(case, out=None, progress=False, overwrite=False, restart=False,
 
     `case` may also be a dict, as Case.from_dict takes it.
 
-    The run releases the GIL, so runs in threads go side by side. Ctrl-C
+    The run releases the GIL, so runs in threads go side by side; give
+    such runs [solver] threads = 1 (the default, 0, gives each run every
+    core, and runs side by side would oversubscribe them). Ctrl-C
     (SIGINT) or SIGTERM stops every run of the process at its next output
     time, each raising Interrupted (a KeyboardInterrupt). Raises CaseError or
     OutputError for bad input, IntegrationError when the integration or its

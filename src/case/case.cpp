@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <nlohmann/json.hpp>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 #include "stickslip/case/methods.hpp"
 
@@ -118,6 +121,15 @@ nlohmann::json to_json(const Case& c) {
         {"signals", c.output.signals},
         {"format", to_string(c.output.format)}}},
   };
+}
+
+int resolved_threads(const SolverParams& solver) {
+  if (solver.threads > 0) return solver.threads;
+#ifdef _OPENMP
+  return omp_get_max_threads();
+#else
+  return 1;
+#endif
 }
 
 }  // namespace stickslip

@@ -317,7 +317,7 @@ const std::vector<Entry>& schema() {
       {"solver", "atol_displacement",
        real(&Case::solver, &SolverParams::atol_displacement, kPositive)},
       {"solver", "atol_velocity", real(&Case::solver, &SolverParams::atol_velocity, kPositive)},
-      {"solver", "threads", integer(&Case::solver, &SolverParams::threads, 1)},
+      {"solver", "threads", integer(&Case::solver, &SolverParams::threads, 0)},
       {"solver", "max_steps", integer(&Case::solver, &SolverParams::max_steps, 1)},
       {"solver", "audit_bound", real(&Case::solver, &SolverParams::audit_bound, kPositive)},
       {"output", "dir", read_dir},

@@ -137,6 +137,7 @@ int sweep_shard(const stickslip::Sweep& sweep, const std::vector<stickslip::Swee
   options.rank = shard.index;
   options.ranks = shard.count;
   options.jobs = jobs > 0 ? jobs : 1;
+  options.threads_per_point = options.jobs > 1 ? 1 : 0;
   std::size_t mine = 0;
   for (const auto& p : points) mine += p.index % shard.count == std::size_t(shard.index);
   std::printf("sweep %s, shard %d/%d: %zu of its %zu points, %d job%s, outputs in %s\n",
@@ -197,6 +198,7 @@ int sweep_command(const std::string& sweep_file, const std::string& out, int job
                    : world.size() > 1
                        ? 1
                        : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    options.threads_per_point = options.jobs > 1 || world.size() > 1 ? 1 : 0;
     if (world.rank() == 0)
       std::printf(
           "sweep %s: %zu points (%zu axes), %d job%s%s, outputs in %s\n", sweep_file.c_str(),
@@ -244,6 +246,11 @@ int main(int argc, char** argv) {
   run->add_flag("--overwrite", overwrite,
                 "replace the results of an earlier run in the output directory");
   run->add_flag("--quiet", quiet, "no progress on stderr");
+  int threads = -1;
+  run->add_option("--threads", threads,
+                  "OpenMP threads of the run, as [solver] threads (0: every core the process may "
+                  "use; results do not depend on it)")
+      ->check(CLI::NonNegativeNumber);
   bool run_any_version = false;
   run->add_flag("--any-version", run_any_version,
                 "with --restart: continue a checkpoint written by another code version "
@@ -290,7 +297,10 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "error: %s (see stickslip --help)\n", e.what());
     return 2;
   }
-  if (*run) return run_command(case_file, out, restart, sets, overwrite, quiet, run_any_version);
+  if (*run) {
+    if (threads >= 0) sets.push_back("solver.threads=" + std::to_string(threads));
+    return run_command(case_file, out, restart, sets, overwrite, quiet, run_any_version);
+  }
   if (*sweep)
     return sweep_command(sweep_file, sweep_out, jobs, sweep_sets, sweep_overwrite,
                          sweep_any_version, sweep_report, shard);

@@ -46,6 +46,7 @@ LatticeSolver::LatticeSolver(const System& system)
     : nx_(system.nx()),
       ny_(system.ny()),
       nz_(system.nz()),
+      threads_(system.threads()),
       modes_(std::int64_t{nx_ / 2 + 1} * ny_),
       real_(static_cast<std::size_t>(3 * system.num_nodes())),
       spectrum_(static_cast<std::size_t>(3 * nz_ * modes_)),
@@ -143,17 +144,18 @@ void LatticeSolver::set_gamma(double gamma) {
   if (gamma == gamma_) return;
   gamma_ = gamma;
   ++factorizations_;
-  for (std::int64_t m = 0; m < modes_; ++m) factorize_mode(m);
-
-  // Green's function: column b of M̂(q)⁻¹ at the bottom layer, for every q.
-  std::vector<Complex> x(static_cast<std::size_t>(3 * nz_));
-  for (std::int64_t m = 0; m < modes_; ++m)
+  // Per mode: its factorization, then the Green's function, column b of
+  // M̂(q)⁻¹ at the bottom layer. Modes are independent: any thread may take one.
+  for_each_mode([&](std::int64_t m) {
+    factorize_mode(m);
+    std::vector<Complex> x(static_cast<std::size_t>(3 * nz_));
     for (int b = 0; b < 2; ++b) {
       std::fill(x.begin(), x.end(), Complex{});
       x[b] = 1.0;
       solve_mode(m, x.data());
       for (int a = 0; a < 2; ++a) green_spectrum_[4 * m + 2 * a + b] = x[a];
     }
+  });
   const double norm = 1.0 / (static_cast<double>(nx_) * ny_);
   for (std::size_t i = 0; i < green_spectrum_.size(); ++i)
     surface_green_[i] = green_spectrum_[i] * norm;
@@ -212,6 +214,16 @@ void LatticeSolver::solve_mode(std::int64_t m, Complex* x) const {
   }
 }
 
+template <class PerMode>
+void LatticeSolver::for_each_mode(PerMode&& per_mode) const {
+  if (threads_ > 1) {
+#pragma omp parallel for schedule(static) num_threads(threads_)
+    for (std::int64_t m = 0; m < modes_; ++m) per_mode(m);
+  } else {
+    for (std::int64_t m = 0; m < modes_; ++m) per_mode(m);
+  }
+}
+
 void LatticeSolver::transform_forward() {
   fftw_execute(plans_->forward);
 }
@@ -227,7 +239,7 @@ void LatticeSolver::solve(std::span<const double> r, std::span<double> w) {
   ++solves_;
   std::copy(r.begin(), r.end(), real_.begin());
   transform_forward();
-  for (std::int64_t m = 0; m < modes_; ++m) solve_mode(m, &spectrum_[3 * nz_ * m]);
+  for_each_mode([&](std::int64_t m) { solve_mode(m, &spectrum_[3 * nz_ * m]); });
   transform_backward();
   std::copy(real_.begin(), real_.end(), w.begin());
 }

@@ -125,15 +125,16 @@ long LatticeStageSolver::solve(double t, double gamma, std::span<const double> p
 }
 
 // ∂F/∂β = I + H − H E at the β whose ∂Σ/∂β are in stages_, factorized in
-// place (one 2 N_c × 2 N_c matrix: 1.6 GB at 7 171 contacts). H's entries
-// are the Green's function's, looked up (offsets wrapped once, in the
+// place in single precision (why: the header; 0.8 GB at 7 171 contacts). H's
+// entries are the Green's function's, looked up (offsets wrapped once, in the
 // constructor: the wrapping's integer divisions were 9 % of a Fig. 9 block
 // slip when H was refilled at every γ).
 void LatticeStageSolver::factorize_jacobian() {
-  const auto n = static_cast<Eigen::Index>(2 * sites_);
   jacobian_lu_.reset();
+  const auto n = static_cast<Eigen::Index>(2 * sites_);
   jacobian_.resize(n, n);
-  for (std::size_t j = 0; j < sites_; ++j) {
+  auto& jacobian = jacobian_;
+  const auto fill_columns = [&](std::size_t j) {
     const auto& e = stages_[j].ds_db;
     const auto c0 = static_cast<Eigen::Index>(2 * j), c1 = c0 + 1;
     for (std::size_t i = 0; i < sites_; ++i) {
@@ -145,10 +146,19 @@ void LatticeStageSolver::factorize_jacobian() {
         const double h1 =
             lattice_.green_wrapped(offset, a, 1) / self_green_ - (a == 1 ? diagonal : 0.0);
         const auto r = static_cast<Eigen::Index>(2 * i + a);
-        jacobian_(r, c0) = h0 - (h0 * e[0] + h1 * e[2]) + (a == 0 ? diagonal : 0.0);
-        jacobian_(r, c1) = h1 - (h0 * e[1] + h1 * e[3]) + (a == 1 ? diagonal : 0.0);
+        jacobian(r, c0) =
+            static_cast<float>(h0 - (h0 * e[0] + h1 * e[2]) + (a == 0 ? diagonal : 0.0));
+        jacobian(r, c1) =
+            static_cast<float>(h1 - (h0 * e[1] + h1 * e[3]) + (a == 1 ? diagonal : 0.0));
       }
     }
+  };
+  const int threads = system_.threads();
+  if (threads > 1) {
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (std::size_t j = 0; j < sites_; ++j) fill_columns(j);
+  } else {
+    for (std::size_t j = 0; j < sites_; ++j) fill_columns(j);
   }
   jacobian_lu_.emplace(jacobian_);
   ++factorizations_;
@@ -173,12 +183,19 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
     predicted_speed_[i] = std::hypot(predictor[site_w_[i]], predictor[site_w_[i] + 1]);
 
   // F(β) and its weighted max norm; Σ(β) into sigma_, ∂Σ/∂β into stages_.
+  const int threads = system_.threads();
+  auto stage = [&](const Eigen::VectorXd& beta, std::size_t i) {
+    stages_[i] = system_.site_stage(i, gamma_self, {beta(2 * i), beta(2 * i + 1)},
+                                    predicted_speed_[i], true);
+    sigma_(2 * i) = stages_[i].s[0];
+    sigma_(2 * i + 1) = stages_[i].s[1];
+  };
   auto evaluate = [&](const Eigen::VectorXd& beta) {
-    for (std::size_t i = 0; i < sites_; ++i) {
-      stages_[i] = system_.site_stage(i, gamma_self, {beta(2 * i), beta(2 * i + 1)},
-                                      predicted_speed_[i], true);
-      sigma_(2 * i) = stages_[i].s[0];
-      sigma_(2 * i + 1) = stages_[i].s[1];
+    if (threads > 1) {
+#pragma omp parallel for schedule(static) num_threads(threads)
+      for (std::size_t i = 0; i < sites_; ++i) stage(beta, i);
+    } else {
+      for (std::size_t i = 0; i < sites_; ++i) stage(beta, i);
     }
     trial_force_ = sigma_ - beta;
     apply_coupling(trial_force_, product_);
@@ -211,7 +228,7 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
       factorize_jacobian();
       fresh = true;
     }
-    step_ = jacobian_lu_->solve(-residual_);
+    step_ = jacobian_lu_->solve((-residual_).cast<float>()).cast<double>();
     // Backtrack while the residual grows (the velocity-weakening branch).
     double fraction = 1.0, trial_norm = 0.0;
     for (;;) {

@@ -66,7 +66,7 @@ System::System(const Case& c, std::vector<Contact> contacts)
       ny_(c.lattice.ny),
       nz_(c.lattice.nz),
       n_(std::int64_t{nx_} * ny_ * nz_),
-      threads_(c.solver.threads),
+      threads_(resolved_threads(c.solver)),
       contacts_(std::move(contacts)),
       patch_(c.interface.patch) {
   const auto& mat = c.material;

@@ -20,6 +20,7 @@ nlohmann::json restart_identity(const nlohmann::json& case_json) {
     id["output"].erase("format");  // changes no number (a restart needs the same files anyway)
   }
   if (id.contains("run")) id["run"].erase("checkpoint_every");  // may change between attempts
+  if (id.contains("solver")) id["solver"].erase("threads");     // changes no number, bit for bit
   return id;
 }
 

@@ -483,6 +483,7 @@ Summary CaseRun::finish() {
   summary.solver = s.integrator->description();
   if (c.solver.step == 0) summary.solver.update(describe_tolerances(system, c.solver));
   if (c.solver.method == Method::automatic) summary.solver["chosen_by"] = s.method.reason;
+  summary.solver["threads"] = system.threads();
   summary.git_commit = kGitCommit;
   summary.segments = s.segments;
   summary.sundials_version = SUNDIALS_VERSION;

@@ -66,8 +66,9 @@ std::string number(const std::optional<double>& x) {
 
 // Starts `stickslip run` for one point, its output in <dir>/run.log.
 pid_t spawn_point(const Sweep& sweep, const SweepPoint& p, const fs::path& dir, const fs::path& exe,
-                  bool restart, bool any_version) {
+                  bool restart, bool any_version, int threads) {
   std::vector<std::string> args = {exe.string(), "run", sweep.base_case.string(), "--quiet"};
+  if (threads > 0) args.insert(args.end(), {"--threads", std::to_string(threads)});
   if (restart) {
     args.insert(args.end(), {"--restart", dir.string()});
     if (any_version) args.emplace_back("--any-version");
@@ -335,8 +336,8 @@ SweepOutcome run_sweep(const Sweep& sweep, const std::vector<SweepPoint>& points
     const fs::path dir = options.out_dir / p.name;
     fs::create_directories(dir);
     fs::remove(dir / "failed");
-    running[spawn_point(sweep, p, dir, options.executable, restart, options.any_version)] = {
-        index, restart};
+    running[spawn_point(sweep, p, dir, options.executable, restart, options.any_version,
+                        options.threads_per_point)] = {index, restart};
   };
   while (next < todo.size() || !running.empty()) {
     while (!g_sweep_signal && next < todo.size() &&

@@ -92,10 +92,15 @@ struct SolverParams {
   // Largest accepted |energy-audit residual| at t_end; 0: 100 × rtol, or
   // 1e-4 for a fixed step. Beyond it the run fails and reports no μ.
   double audit_bound = 0.0;
-  // OpenMP threads for the lattice forces (1: serial). Results do not depend
-  // on it; whether it pays: docs/PERFORMANCE.md.
-  int threads = 1;
+  // OpenMP threads of one run (1: serial; 0: every core the process may use,
+  // resolved by resolved_threads). Results do not depend on it, bit for bit;
+  // what it gains: docs/PERFORMANCE.md.
+  int threads = 0;
 };
+
+// [solver] threads with 0 resolved: OpenMP's thread count for the process
+// (OMP_NUM_THREADS if set, else the cores it may run on).
+int resolved_threads(const SolverParams& solver);
 
 // The files a run writes its tables to: one CSV file per table, or one HDF5
 // file (run.h5) with a group per table.

@@ -81,10 +81,14 @@ class LatticeSolver {
   void probe(const System& system);
   void factorize_mode(std::int64_t m);
   void solve_mode(std::int64_t m, Complex* x) const;
+  // per_mode(m) for every mode, on threads_ OpenMP threads.
+  template <class PerMode>
+  void for_each_mode(PerMode&& per_mode) const;
   void transform_forward();   // real_ → spectrum_
   void transform_backward();  // spectrum_ → real_, scaled by 1/(Nx Ny)
 
   int nx_, ny_, nz_;
+  int threads_;
   std::int64_t modes_;  // Nx/2+1 times Ny (the half spectrum of a real 2D field)
   double gamma_ = -1.0;
   long factorizations_ = 0, solves_ = 0;

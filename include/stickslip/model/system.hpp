@@ -85,6 +85,8 @@ class System {
   int nx() const { return nx_; }
   int ny() const { return ny_; }
   int nz() const { return nz_; }
+  // OpenMP threads for the loops of a run ([solver] threads, resolved).
+  int threads() const { return threads_; }
   std::int64_t num_nodes() const { return n_; }
   std::int64_t size() const { return 6 * n_ + kQuadratures; }
   std::int64_t node(int ix, int iy, int iz) const {
@@ -238,7 +240,7 @@ class System {
   std::int64_t n_;
   double a_, mass_, g1_, g2_;
   double k1_over_m_, k2_over_m_, kd_over_m_;  // [1/s²]
-  int threads_;                 // OpenMP threads of the lattice forces ([solver] threads)
+  int threads_;                 // OpenMP threads of a run ([solver] threads, resolved)
   double eta_, eta_c_;          // [1/s]
   double v_;                    // drive velocity [m/s]
   double contact_force_scale_;  // ε f0 / m [m/s²]

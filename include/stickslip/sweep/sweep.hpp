@@ -96,6 +96,10 @@ struct SweepOptions {
   int rank = 0, ranks = 1;           // this process's share: points with index % ranks == rank
                                      // (an MPI rank, or a shard of a job array)
   std::filesystem::path executable;  // the stickslip binary that runs each point
+  // Each point's `run --threads`: 1 where points run side by side (--jobs
+  // above 1, MPI ranks), so cores are never oversubscribed; 0 leaves the
+  // case's [solver] threads (by default every core the process may use).
+  int threads_per_point = 0;
 };
 
 struct SweepOutcome {
