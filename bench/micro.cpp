@@ -12,6 +12,9 @@
 //   implicit_stage/N/P     LatticeStageSolver::solve, a whole dirk or bdf stage, at
 //                          coverage P % (the contacts' coupled Newton grows with N_c);
 //                          the same stage again and again, at one γ
+//   rhs_threads/N/T, implicit_stage_threads/N/P/T   rhs and implicit_stage on T
+//                          threads ([solver] threads; wall time): the speedup of
+//                          one run's kernels, 120×120×10 included
 //   dirk_stage/N/P         a stage in situ: dirk (rtol 1e-6) advanced 20 µs from the
 //                          fixture's state; `rhs_per_stage` is the wall time per
 //                          implicit stage in units of one rhs, timed in the same run
@@ -52,6 +55,7 @@ Fixture& fixture(int n, double coverage = 0.5) {
     f = std::make_unique<Fixture>();
     f->c.lattice = {n, n, 10, 1e-4};
     f->c.interface.coverage = coverage;
+    f->c.solver.threads = 1;  // the kernels on one core; *_threads vary it
     f->system = std::make_unique<System>(f->c, place_contacts(f->c.lattice, f->c.interface));
     f->y.resize(static_cast<std::size_t>(f->system->size()));
     f->ydot.resize(f->y.size());
@@ -114,6 +118,20 @@ void BM_rhs_explicit_threads(benchmark::State& state) {
   const System system(c, f.system->contacts());
   for (auto _ : state) {
     system.rhs_explicit(0.0, f.y, f.ydot);
+    benchmark::DoNotOptimize(f.ydot.data());
+  }
+  report_nodes(state, system);
+}
+
+// At θ = 0.04: the rhs's cost is the lattice's, and the fixture at 120×120
+// stays cheap to make.
+void BM_rhs_threads(benchmark::State& state) {
+  auto& f = fixture(static_cast<int>(state.range(0)), 0.04);
+  Case c = f.c;
+  c.solver.threads = static_cast<int>(state.range(1));
+  const System system(c, f.system->contacts());
+  for (auto _ : state) {
+    system.rhs(0.0, f.y, f.ydot);
     benchmark::DoNotOptimize(f.ydot.data());
   }
   report_nodes(state, system);
@@ -206,6 +224,28 @@ void BM_implicit_stage(benchmark::State& state) {
   report_nodes(state, *f.system);
 }
 
+// As implicit_stage, on range(2) threads; the Newton matrix's LU is made
+// before the timing starts (its cost: implicit_stage's first call).
+void BM_implicit_stage_threads(benchmark::State& state) {
+  auto& f = fixture(static_cast<int>(state.range(0)), static_cast<double>(state.range(1)) / 100);
+  Case c = f.c;
+  c.solver.threads = static_cast<int>(state.range(2));
+  const System system(c, f.system->contacts());
+  LatticeStageSolver solver(system, std::numeric_limits<double>::infinity());
+  std::vector<double> z = f.y, weights(f.y.size());
+  for (std::size_t i = 0; i < z.size(); ++i) weights[i] = 1.0 / (1e-6 * std::abs(f.y[i]) + 1e-9);
+  solver.solve(0.0, 1e-7, f.y, weights, z);
+  long iterations = 0;
+  for (auto _ : state) {
+    std::copy(f.y.begin(), f.y.end(), z.begin());
+    iterations += solver.solve(0.0, 1e-7, f.y, weights, z);
+  }
+  state.counters["newton_per_stage"] =
+      static_cast<double>(iterations) / static_cast<double>(state.iterations());
+  state.counters["contacts"] = static_cast<double>(system.contacts().size());
+  report_nodes(state, system);
+}
+
 void BM_dirk_stage(benchmark::State& state) {
   auto& f = fixture(static_cast<int>(state.range(0)), static_cast<double>(state.range(1)) / 100);
   SolverParams solver;
@@ -261,6 +301,15 @@ BENCHMARK(BM_dirk_stage)
     ->Args({30, 50})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(3);
+BENCHMARK(BM_rhs_threads)->ArgsProduct({{15, 60, 120}, {1, 2}})->UseRealTime();
+BENCHMARK(BM_implicit_stage_threads)
+    ->ArgsProduct({{15, 60, 120}, {4}, {1, 2}})
+    ->Args({15, 50, 1})
+    ->Args({15, 50, 2})
+    ->Args({60, 50, 1})
+    ->Args({60, 50, 2})
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_rhs_explicit_threads)
     ->ArgsProduct({{15, 30, 60}, {1, 2}})
     ->UseRealTime()

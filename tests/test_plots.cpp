@@ -6,6 +6,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <regex>
 #include <sstream>
@@ -413,4 +415,54 @@ TEST_CASE("patch_size.py: mu and F_f's spread per patch size and coverage, means
   CHECK(groups == 4);
   CHECK(drops == 2);
   CHECK(fs::exists(box.work / "out" / "p" / "patch_size.csv"));
+}
+
+TEST_CASE("finite_size.py: the drop per width with its propagated error, and its extrapolation",
+          "[plots]") {
+  Sandbox box("stickslip_plots_");
+  // Three seeds per width and coverage whose μ are known: at θ = 0.04 the
+  // mean is 5, at θ = 0.498 it is 5 (1 − drop(L)) with drop(L) = 0.1 + 0.6/L,
+  // exactly linear in 1/L, so any weighted straight line meets 0.1 at L → ∞.
+  const auto drop = [](int width) { return 0.1 + 0.6 / width; };
+  for (int width : {15, 30, 60})
+    for (double coverage : {0.04, 0.498})
+      for (int seed : {1, 2, 3}) {
+        const double mean = coverage < 0.1 ? 5.0 : 5.0 * (1 - drop(width));
+        const double mu = mean + 0.05 * (seed - 2);  // sd 0.05, s.e. 0.05/√3
+        const nlohmann::json summary = {
+            {"case",
+             {{"lattice", {{"nx", width}, {"ny", width}, {"nz", 10}}},
+              {"interface", {{"coverage", coverage}, {"seed", seed}}}}},
+            {"mu", mu + 1.0},  // the window mean: not the one to use
+            {"mu_whole_cycles", {{"mu", mu}, {"from", 0.025}, {"to", 0.065}, {"crossings", 5}}},
+            {"F_f_spread", 0.1},
+            {"wall_seconds", 3600.0},
+            {"contacts", 100}};
+        const fs::path dir = box.work / "fs" /
+                             ("coverage=" + std::to_string(coverage) +
+                              "_seed=" + std::to_string(seed) + "_nx=" + std::to_string(width));
+        fs::create_directories(dir);
+        std::ofstream(dir / "summary.json") << summary.dump();
+      }
+  const auto r = python(box, "finite_size.py", "fs");
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  check_png(box.work / "fs" / "finite_size.png");
+  const double sem = 0.05 / std::sqrt(3.0);
+  for (int width : {15, 30, 60}) {
+    const double ratio = 1 - drop(width);
+    const double error = ratio * std::hypot(sem / (5 * ratio), sem / 5);
+    std::smatch m;
+    const std::regex line(std::to_string(width) + "x" + std::to_string(width) +
+                          R"(x10: drop (\S+) % ± (\S+) %)");
+    REQUIRE(std::regex_search(r.out, m, line));
+    CHECK(std::stod(m[1].str()) == Approx(100 * drop(width)).margin(0.05));
+    CHECK(std::stod(m[2].str()) == Approx(100 * error).margin(0.05));
+  }
+  std::smatch m;
+  REQUIRE(std::regex_search(r.out, m, std::regex(R"(L -> infinity: (\S+) % \+- (\S+) %)")));
+  CHECK(std::stod(m[1].str()) == Approx(10.0).margin(0.01));
+  CHECK(std::stod(m[2].str()) > 0.0);
+  // The block-scale period: (to − from)/(crossings − 1) = 10 ms.
+  CHECK_THAT(slurp(box.work / "fs" / "finite_size.csv"), Catch::Contains(",10,4,"));
 }

@@ -148,7 +148,8 @@ void LatticeSolver::set_gamma(double gamma) {
   // M̂(q)⁻¹ at the bottom layer. Modes are independent: any thread may take one.
   for_each_mode([&](std::int64_t m) {
     factorize_mode(m);
-    std::vector<Complex> x(static_cast<std::size_t>(3 * nz_));
+    thread_local std::vector<Complex> x;  // no allocation per mode (was 1.4 % of a slip)
+    x.resize(static_cast<std::size_t>(3 * nz_));
     for (int b = 0; b < 2; ++b) {
       std::fill(x.begin(), x.end(), Complex{});
       x[b] = 1.0;

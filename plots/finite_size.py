@@ -1,0 +1,163 @@
+#!/usr/bin/python3
+"""Does μ's drop with load survive as the block grows? The drop
+1 − μ(0.498)/μ(0.04) against 1/L (L = Nx = Ny), with its error over seeds, and
+a straight-line extrapolation to L → ∞ where three or more widths have a drop.
+
+Usage: /usr/bin/python3 plots/finite_size.py SWEEP_DIR
+       (the output of `stickslip sweep cases/finite_size.toml`)
+  -> SWEEP_DIR/finite_size.png, finite_size.pdf and finite_size.csv (one row
+     per lattice and coverage: seeds, μ over whole cycles with its standard
+     error, F_f's spread, the block-scale cycle's period; then one row per
+     lattice with the drop and its propagated error)
+
+μ of a point is μ over whole cycles of F_f (summary.json's mu_whole_cycles),
+else over the window. The period is (to − from)/(crossings − 1) of the whole
+cycles: meaningful where F_f is a sawtooth (θ = 0.498), not where many small
+slips cross the mean (θ = 0.04).
+"""
+import csv
+import json
+import math
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+LOW, HIGH = 0.04, 0.498
+
+
+def points(sweep_dir: Path):
+    """One dict per finished point: lattice, coverage, seed, μ, spread, period, cost."""
+    out = []
+    for summary in sorted(sweep_dir.glob("*/summary.json")):
+        try:
+            s = json.loads(summary.read_text())
+        except (OSError, ValueError):
+            continue  # a point still running, or cut short
+        case = s["case"]
+        cycles = s.get("mu_whole_cycles")
+        period = None
+        if cycles and cycles["crossings"] >= 2:
+            period = (cycles["to"] - cycles["from"]) / (cycles["crossings"] - 1)
+        out.append({
+            "nx": case["lattice"]["nx"], "ny": case["lattice"]["ny"], "nz": case["lattice"]["nz"],
+            "coverage": case["interface"]["coverage"], "seed": case["interface"]["seed"],
+            "mu": cycles["mu"] if cycles else s["mu"], "whole_cycles": bool(cycles),
+            "spread": s.get("F_f_spread"), "period": period, "cycles": cycles["crossings"] - 1
+            if cycles and cycles["crossings"] >= 2 else 0,
+            "wall_hours": s["wall_seconds"] / 3600, "contacts": s["contacts"],
+        })
+    return out
+
+
+def mean_sem(values):
+    n = len(values)
+    m = sum(values) / n
+    if n < 2:
+        return m, None, None
+    sd = math.sqrt(sum((v - m) ** 2 for v in values) / (n - 1))
+    return m, sd, sd / math.sqrt(n)
+
+
+def main() -> int:
+    if len(sys.argv) != 2:
+        print(__doc__, file=sys.stderr)
+        return 2
+    sweep_dir = Path(sys.argv[1])
+    pts = points(sweep_dir)
+    if not pts:
+        raise SystemExit(f"error: {sweep_dir}: no finished point (no */summary.json)")
+    groups = {}
+    for p in pts:
+        groups.setdefault((p["nx"], p["ny"], p["nz"], p["coverage"]), []).append(p)
+
+    rows, drops = [], []
+    lattices = sorted({k[:3] for k in groups})
+    for lat in lattices:
+        stats = {}
+        for theta in (LOW, HIGH):
+            g = groups.get(lat + (theta,))
+            if not g:
+                continue
+            mu, sd, sem = mean_sem([p["mu"] for p in g])
+            periods = [p["period"] for p in g if p["period"]]
+            spreads = [p["spread"] for p in g if p["spread"] is not None]
+            stats[theta] = (mu, sem)
+            rows.append({
+                "lattice": "x".join(map(str, lat)), "coverage": theta, "seeds": len(g),
+                "mu": f"{mu:.6g}", "mu_sd": f"{sd:.3g}" if sd else "", "mu_sem": f"{sem:.3g}" if sem else "",
+                "F_f_spread": f"{sum(spreads) / len(spreads):.3g}" if spreads else "",
+                "period_ms": f"{1e3 * sum(periods) / len(periods):.3g}" if periods else "",
+                "cycles": min(p["cycles"] for p in g),
+                "wall_hours_per_point": f"{max(p['wall_hours'] for p in g):.2g}",
+            })
+        if LOW in stats and HIGH in stats:
+            (lo, lo_sem), (hi, hi_sem) = stats[LOW], stats[HIGH]
+            drop = 1 - hi / lo
+            err = None
+            if lo_sem is not None and hi_sem is not None:
+                err = (hi / lo) * math.hypot(hi_sem / hi, lo_sem / lo)
+            drops.append((lat, drop, err))
+
+    table = sweep_dir / "finite_size.csv"
+    with table.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
+        f.write("\nlattice,drop,drop_error\n")
+        for lat, drop, err in drops:
+            f.write(f"{'x'.join(map(str, lat))},{drop:.4g},{'' if err is None else f'{err:.2g}'}\n")
+    for r in rows:
+        print(", ".join(f"{k}={v}" for k, v in r.items()))
+
+    fig, ax = plt.subplots(figsize=(6.5, 4))
+    thin = [(lat, d, e) for lat, d, e in drops if lat[2] == 10]
+    thick = [(lat, d, e) for lat, d, e in drops if lat[2] != 10]
+    for series, marker, label in ((thin, "o", "Nz = 10"), (thick, "s", "Nz scaled with the width")):
+        if not series:
+            continue
+        x = [1 / lat[0] for lat, _, _ in series]
+        y = [100 * d for _, d, _ in series]
+        yerr = [100 * e if e is not None else 0 for _, _, e in series]
+        ax.errorbar(x, y, yerr=yerr, marker=marker, ls="none", capsize=3, label=label)
+        for (lat, d, e), xi in zip(series, x):
+            print(f"{'x'.join(map(str, lat))}: drop {100 * d:.1f} %"
+                  + (f" ± {100 * e:.1f} %" if e is not None else " (one seed: no error)"))
+    # Weighted straight line in 1/L through the Nz = 10 widths that have an
+    # error; its intercept is the drop of an infinitely wide block.
+    fit = [(1 / lat[0], d, e) for lat, d, e in thin if e]
+    if len(fit) >= 3:
+        x, y, e = (np.array(v) for v in zip(*fit))
+        coef, cov = np.polyfit(x, y, 1, w=1 / e, cov="unscaled")
+        slope, intercept = coef
+        sigma = math.sqrt(cov[1, 1])
+        xs = np.linspace(0, max(x) * 1.05, 50)
+        ax.plot(xs, 100 * (intercept + slope * xs), "k--", lw=1,
+                label=f"fit: L → ∞ drop {100 * intercept:.1f} % ± {100 * sigma:.1f} %")
+        print(f"extrapolated drop at L -> infinity: {100 * intercept:.2f} % +- {100 * sigma:.2f} %")
+        with table.open("a") as f:
+            f.write(f"infinity,{intercept:.4g},{sigma:.2g}\n")
+    else:
+        print(f"no extrapolation: {len(fit)} width(s) with an error bar at Nz = 10 (3 needed)")
+        ax.text(0.02, 0.04, f"no extrapolation yet: {len(fit)} of the ≥ 3 widths needed",
+                transform=ax.transAxes, fontsize=8)
+    ax.set_xlim(left=0)
+    ax.set_xlabel("1 / L   (L = Nx = Ny)")
+    ax.set_ylabel("drop of μ, θ = 0.04 → 0.498 [%]")
+    ax.set_title("Finite size: μ's drop with load, v = 1e-3 m/s (mean ± s.e. over seeds)",
+                 fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    for ext in ("png", "pdf"):
+        fig.savefig(sweep_dir / f"finite_size.{ext}", dpi=120)
+    print(f"wrote {table}, {sweep_dir / 'finite_size.png'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
