@@ -12,6 +12,8 @@
 //   implicit_stage/N/P     LatticeStageSolver::solve, a whole dirk or bdf stage, at
 //                          coverage P % (the contacts' coupled Newton grows with N_c);
 //                          the same stage again and again, at one γ
+//   machine_compute_threads/T   a floating-point loop on each of T threads at once:
+//                          what T threads of this machine can give at best
 //   rhs_threads/N/T, implicit_stage_threads/N/P/T   rhs and implicit_stage on T
 //                          threads ([solver] threads; wall time): the speedup of
 //                          one run's kernels, 120×120×10 included
@@ -26,6 +28,7 @@
 #include <sunmatrix/sunmatrix_sparse.h>
 
 #include <chrono>
+#include <cmath>
 #include <limits>
 #include <map>
 #include <memory>
@@ -135,6 +138,25 @@ void BM_rhs_threads(benchmark::State& state) {
     benchmark::DoNotOptimize(f.ydot.data());
   }
   report_nodes(state, system);
+}
+
+// The machine's ceiling: the same floating-point loop (no memory traffic)
+// on each of range(0) threads at once. With n real cores the wall time per
+// iteration stays that of one thread; the ratio is what n threads can give
+// any compute-bound kernel here.
+void BM_machine_compute_threads(benchmark::State& state) {
+  const int threads = static_cast<int>(state.range(0));
+  for (auto _ : state) {
+    double total = 0.0;
+#pragma omp parallel num_threads(threads) reduction(+ : total)
+    {
+      double s = 0.0;
+      for (long i = 1; i < 20'000'000; ++i) s += std::sqrt(static_cast<double>(i));
+      total += s;
+    }
+    benchmark::DoNotOptimize(total);
+  }
+  state.SetItemsProcessed(state.iterations() * threads);
 }
 
 // KLU on I − γJ, as ARKStep (dirk) and CVODE (bdf) set it up: the numeric
@@ -301,6 +323,7 @@ BENCHMARK(BM_dirk_stage)
     ->Args({30, 50})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(3);
+BENCHMARK(BM_machine_compute_threads)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_rhs_threads)->ArgsProduct({{15, 60, 120}, {1, 2}})->UseRealTime();
 BENCHMARK(BM_implicit_stage_threads)
     ->ArgsProduct({{15, 60, 120}, {4}, {1, 2}})

@@ -3,6 +3,7 @@
 // refused, MPI ranks against local jobs, and bad sweep files.
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstdlib>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -551,4 +552,37 @@ TEST_CASE("a sweep split into job-array shards makes the same tables as one run"
   CHECK(WEXITSTATUS(status) == 2);
   CHECK_THAT(slurp(box.work / "stepped.txt"), Catch::Contains("one range FIRST-LAST"));
   CHECK_FALSE(fs::exists(box.work / "stepped"));
+}
+
+TEST_CASE("points side by side run on one thread each; one at a time, on the case's threads",
+          "[sweep][threads]") {
+  Sandbox box;
+  box.write("base.toml", kBase);
+  box.write("tiny.toml", kTiny);
+  // Three threads for any process that is not told otherwise (the suite's
+  // environment says one: see tests/CMakeLists.txt).
+  const std::string before = std::getenv("OMP_NUM_THREADS") ? std::getenv("OMP_NUM_THREADS") : "";
+  setenv("OMP_NUM_THREADS", "3", 1);
+  const auto side_by_side = box.run({"sweep", "tiny.toml", "--jobs", "2", "--out", "two"});
+  const auto one_at_a_time = box.run({"sweep", "tiny.toml", "--jobs", "1", "--out", "one"});
+  if (before.empty())
+    unsetenv("OMP_NUM_THREADS");
+  else
+    setenv("OMP_NUM_THREADS", before.c_str(), 1);
+  REQUIRE(side_by_side.code == 0);
+  REQUIRE(one_at_a_time.code == 0);
+  for (const auto& [dir, threads] : {std::pair{"two", 1}, std::pair{"one", 3}}) {
+    int points = 0;
+    for (const auto& entry : fs::directory_iterator(box.work / dir)) {
+      if (!entry.is_directory()) continue;
+      const auto summary = nlohmann::json::parse(slurp(entry.path() / "summary.json"));
+      INFO(entry.path());
+      CHECK(summary["solver"]["threads"] == threads);
+      ++points;
+    }
+    CHECK(points == 4);
+  }
+  // The same numbers either way.
+  CHECK(slurp(box.work / "two" / "sweep_summary.csv") ==
+        slurp(box.work / "one" / "sweep_summary.csv"));
 }
