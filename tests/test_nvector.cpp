@@ -10,6 +10,7 @@
 #include <random>
 #include <vector>
 
+#include "stickslip/integrate/serial_vector_kernels.hpp"
 #include "stickslip/integrate/sundials.hpp"
 
 using namespace stickslip;
@@ -38,10 +39,14 @@ std::vector<double> values_of(N_Vector v) {
 }  // namespace
 
 TEST_CASE("blocked linear combinations equal SUNDIALS' own, bit for bit, aliased or not",
-          "[nvector]") {
+          "[nvector][threads]") {
+  // On 1 and 3 threads (ScopedKernelThreads): the longest vectors are split.
+  const int threads = GENERATE(1, 3);
+  INFO("threads " << threads);
+  const ScopedKernelThreads kernels(threads);
   SunContext ctx;
   std::mt19937_64 gen(11);
-  for (std::size_t n : {1u, 3u, 511u, 512u, 513u, 2049u}) {
+  for (std::size_t n : {1u, 3u, 511u, 512u, 513u, 2049u, 3u * 16384u + 517u}) {
     for (int nvec : {1, 2, 3, 7, 13}) {
       std::vector<std::vector<double>> inputs;
       for (int i = 0; i < nvec; ++i) inputs.push_back(random_values(n, gen));
@@ -162,14 +167,18 @@ std::vector<double> values_with_zeros(std::size_t n, std::mt19937_64& gen) {
 
 }  // namespace
 
-TEST_CASE("the linear sum equals SUNDIALS' bit for bit in each of its special cases", "[nvector]") {
+TEST_CASE("the linear sum equals SUNDIALS' bit for bit in each of its special cases",
+          "[nvector][threads]") {
+  const int threads = GENERATE(1, 3);
+  INFO("threads " << threads);
+  const ScopedKernelThreads kernels(threads);
   SunContext ctx;
   std::mt19937_64 gen(3);
   const double c = 0.37, d = -2.9;
   const std::pair<double, double> coefficients[] = {{1, 1},  {1, -1}, {-1, 1}, {-1, -1}, {c, c},
                                                     {c, -c}, {1, d},  {d, 1},  {-1, d},  {d, -1},
                                                     {c, d},  {0, d},  {c, 0},  {0, 0},   {-c, c}};
-  for (std::size_t n : {1u, 7u, 1000u}) {
+  for (std::size_t n : {1u, 7u, 1000u, 2u * 16384u + 9u}) {
     const auto x = random_values(n, gen);
     auto y = random_values(n, gen);
     // Entries where y = x and y = −x: there the special cases differ from
@@ -187,10 +196,14 @@ TEST_CASE("the linear sum equals SUNDIALS' bit for bit in each of its special ca
   }
 }
 
-TEST_CASE("the element-wise kernels and reductions equal SUNDIALS' bit for bit", "[nvector]") {
+TEST_CASE("the element-wise kernels and reductions equal SUNDIALS' bit for bit",
+          "[nvector][threads]") {
+  const int threads = GENERATE(1, 3);
+  INFO("threads " << threads);
+  const ScopedKernelThreads kernels(threads);
   SunContext ctx;
   std::mt19937_64 gen(7);
-  for (std::size_t n : {1u, 2u, 5u, 513u, 13503u}) {
+  for (std::size_t n : {1u, 2u, 5u, 513u, 13503u, 2u * 16384u + 3u}) {
     INFO("length " << n);
     const auto x = values_with_zeros(n, gen), y = values_with_zeros(n, gen);
     auto nonzero = random_values(n, gen);
@@ -239,12 +252,16 @@ TEST_CASE("the element-wise kernels and reductions equal SUNDIALS' bit for bit",
   }
 }
 
-TEST_CASE("the fused multi-vector kernels equal SUNDIALS' generic loops bit for bit", "[nvector]") {
+TEST_CASE("the fused multi-vector kernels equal SUNDIALS' generic loops bit for bit",
+          "[nvector][threads]") {
   // With the serial vector's fused operations off (its default), SUNDIALS'
   // N_VScaleAddMulti and N_VDotProdMulti loop over N_VLinearSum and N_VDotProd.
+  const int threads = GENERATE(1, 3);
+  INFO("threads " << threads);
+  const ScopedKernelThreads kernels(threads);
   SunContext ctx;
   std::mt19937_64 gen(13);
-  for (std::size_t n : {1u, 9u, 2049u})
+  for (std::size_t n : {1u, 9u, 2049u, 2u * 16384u + 1u})
     for (int nvec : {1, 2, 5}) {
       INFO("length " << n << ", " << nvec << " vectors");
       const auto x = random_values(n, gen);
