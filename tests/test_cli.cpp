@@ -283,3 +283,12 @@ TEST_CASE(
   const stickslip::Case other = stickslip::read_case(file.string(), {"solver.rtol=1e-6"});
   CHECK_FALSE(stickslip::same_case(stickslip::to_json(then), other));
 }
+
+TEST_CASE("a negative thread count is bad input, from the command line or the case", "[cli]") {
+  const auto [flag, flag_file] = refused(kTiny, {"--threads", "-2"});
+  CHECK_THAT(flag, StartsWith("error: --threads: "));
+  CHECK_THAT(flag, Contains("-2"));
+  const auto [key, key_file] = refused(kTiny + "[solver]\nthreads = -1\n");
+  CHECK_THAT(key, StartsWith("error: " + key_file + ":"));
+  CHECK_THAT(key, Contains("solver.threads: must be >= 0, got -1"));
+}

@@ -250,7 +250,7 @@ int main(int argc, char** argv) {
   run->add_option("--threads", threads,
                   "OpenMP threads of the run, as [solver] threads (0: every core the process may "
                   "use; results do not depend on it)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0, 4096));
   bool run_any_version = false;
   run->add_flag("--any-version", run_any_version,
                 "with --restart: continue a checkpoint written by another code version "
