@@ -48,10 +48,12 @@ LatticeStageSolver::LatticeStageSolver(const System& system, double max_gamma_la
     v->resize(n);
   stages_.resize(sites_);
   predicted_speed_.resize(sites_);
-  // Eigen's LU runs its block updates on every OpenMP thread by default; on
-  // these ≤ 900² matrices the threads mostly spin-waited (half the run's
-  // time on theta05 in a profile, with a sweep's other point on the other
-  // core), and a run's threads are [solver] threads, for the lattice loops.
+  // Eigen's LU runs its block updates on every OpenMP thread by default, and
+  // chooses its products' blocking by thread count: results could depend on
+  // the number of threads. It also mostly spin-waited on these ≤ 900² matrices
+  // (half the run's time on theta05 in a profile, with a sweep's other point
+  // on the other core). A run's threads ([solver] threads) go to the loops
+  // whose work is split the same way for any count (see solve_contacts).
   Eigen::setNbThreads(1);
 }
 
