@@ -1,11 +1,16 @@
 // Verification of the elastic operator of MODEL.md §3 against exact results.
 #include <Eigen/Dense>
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <numbers>
 #include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "stickslip/model/contacts.hpp"
+#include "stickslip/model/parallel_for.hpp"
 #include "stickslip/model/system.hpp"
 
 using namespace stickslip;
@@ -188,5 +193,28 @@ TEST_CASE("the lattice forces do not depend on the number of threads", "[elastic
       INFO("nz = " << nz << ", threads = " << threads);
       CHECK(got == expected);  // bit for bit: every entry sums its terms in one order
     }
+  }
+}
+
+TEST_CASE("parallel_for visits every index once and rethrows the first index's exception",
+          "[threads]") {
+  for (int threads : {1, 2, 3}) {
+    INFO("threads " << threads);
+    std::vector<int> visits(1000, 0);
+    stickslip::parallel_for(threads, 1000,
+                            [&](std::int64_t i) { ++visits[static_cast<std::size_t>(i)]; });
+    CHECK(std::count(visits.begin(), visits.end(), 1) == 1000);
+    // Indices 700 and 300 throw: the loop finishes, and 300's error comes out.
+    std::vector<int> done(1000, 0);
+    try {
+      stickslip::parallel_for(threads, 1000, [&](std::int64_t i) {
+        if (i == 700 || i == 300) throw std::runtime_error("at " + std::to_string(i));
+        done[static_cast<std::size_t>(i)] = 1;
+      });
+      FAIL("no exception");
+    } catch (const std::runtime_error& e) {
+      CHECK(std::string(e.what()) == "at 300");
+    }
+    CHECK(std::count(done.begin(), done.end(), 1) == (threads == 1 ? 300 : 998));
   }
 }

@@ -8,6 +8,8 @@
 #include <mutex>
 #include <stdexcept>
 
+#include "stickslip/model/parallel_for.hpp"
+
 namespace stickslip {
 namespace {
 
@@ -217,12 +219,7 @@ void LatticeSolver::solve_mode(std::int64_t m, Complex* x) const {
 
 template <class PerMode>
 void LatticeSolver::for_each_mode(PerMode&& per_mode) const {
-  if (threads_ > 1) {
-#pragma omp parallel for schedule(static) num_threads(threads_)
-    for (std::int64_t m = 0; m < modes_; ++m) per_mode(m);
-  } else {
-    for (std::int64_t m = 0; m < modes_; ++m) per_mode(m);
-  }
+  parallel_for(threads_, modes_, per_mode);
 }
 
 void LatticeSolver::transform_forward() {

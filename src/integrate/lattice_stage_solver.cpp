@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "stickslip/model/parallel_for.hpp"
+
 namespace stickslip {
 
 // The stage equation, with f split as MODEL.md §3–6 define it
@@ -155,13 +157,8 @@ void LatticeStageSolver::factorize_jacobian() {
       }
     }
   };
-  const int threads = system_.threads();
-  if (threads > 1) {
-#pragma omp parallel for schedule(static) num_threads(threads)
-    for (std::size_t j = 0; j < sites_; ++j) fill_columns(j);
-  } else {
-    for (std::size_t j = 0; j < sites_; ++j) fill_columns(j);
-  }
+  parallel_for(system_.threads(), static_cast<std::int64_t>(sites_),
+               [&](std::int64_t j) { fill_columns(static_cast<std::size_t>(j)); });
   jacobian_lu_.emplace(jacobian_);
   ++factorizations_;
 }
@@ -185,7 +182,6 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
     predicted_speed_[i] = std::hypot(predictor[site_w_[i]], predictor[site_w_[i] + 1]);
 
   // F(β) and its weighted max norm; Σ(β) into sigma_, ∂Σ/∂β into stages_.
-  const int threads = system_.threads();
   auto stage = [&](const Eigen::VectorXd& beta, std::size_t i) {
     stages_[i] = system_.site_stage(i, gamma_self, {beta(2 * i), beta(2 * i + 1)},
                                     predicted_speed_[i], true);
@@ -193,12 +189,8 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
     sigma_(2 * i + 1) = stages_[i].s[1];
   };
   auto evaluate = [&](const Eigen::VectorXd& beta) {
-    if (threads > 1) {
-#pragma omp parallel for schedule(static) num_threads(threads)
-      for (std::size_t i = 0; i < sites_; ++i) stage(beta, i);
-    } else {
-      for (std::size_t i = 0; i < sites_; ++i) stage(beta, i);
-    }
+    parallel_for(system_.threads(), static_cast<std::int64_t>(sites_),
+                 [&](std::int64_t i) { stage(beta, static_cast<std::size_t>(i)); });
     trial_force_ = sigma_ - beta;
     apply_coupling(trial_force_, product_);
     residual_ = beta - free_speed_ - product_;

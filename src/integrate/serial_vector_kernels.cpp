@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "stickslip/model/parallel_for.hpp"
+
 // Why this file exists: Debian's SUNDIALS 6.4.1 is compiled without
 // optimization (its serial kernels keep every loop variable on the stack:
 // `objdump -d libsundials_nvecserial.so.6.4.1`), and a linear sum of two
@@ -31,13 +33,13 @@ constexpr sunindextype kThreadBlock = 16384;
 template <class Block>
 void for_blocks(sunindextype n, Block&& f) {
   const sunindextype blocks = (n + kThreadBlock - 1) / kThreadBlock;
-  if (kernel_threads > 1 && blocks > 1) {
-#pragma omp parallel for schedule(static) num_threads(kernel_threads)
-    for (sunindextype b = 0; b < blocks; ++b)
-      f(b * kThreadBlock, std::min(kThreadBlock, n - b * kThreadBlock));
-  } else {
+  if (kernel_threads <= 1 || blocks < 2) {
     f(0, n);
+    return;
   }
+  parallel_for(kernel_threads, blocks, [&](std::int64_t b) {
+    f(b * kThreadBlock, std::min(kThreadBlock, n - b * kThreadBlock));
+  });
 }
 
 double* data(N_Vector v) {
