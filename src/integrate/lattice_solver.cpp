@@ -35,11 +35,15 @@ std::mutex& planner_mutex() {
 // FFTW plans, destroyed with the solver. Planned with FFTW_ESTIMATE: the same
 // algorithm on every run, so results are reproducible bit for bit.
 struct LatticeSolver::Plans {
-  fftw_plan forward = nullptr, backward = nullptr, green = nullptr;
-  fftw_plan surface_forward = nullptr, surface_backward = nullptr;
+  // The velocity field's transforms, one plan per layer (its three
+  // components), so the layers can go to the run's threads.
+  std::vector<fftw_plan> forward, backward;
+  fftw_plan green = nullptr, surface_forward = nullptr, surface_backward = nullptr;
   ~Plans() {
     const std::lock_guard lock(planner_mutex());
-    for (fftw_plan p : {forward, backward, green, surface_forward, surface_backward})
+    for (fftw_plan p : forward) fftw_destroy_plan(p);
+    for (fftw_plan p : backward) fftw_destroy_plan(p);
+    for (fftw_plan p : {green, surface_forward, surface_backward})
       if (p) fftw_destroy_plan(p);
   }
 };
@@ -59,13 +63,18 @@ LatticeSolver::LatticeSolver(const System& system)
   // k + 3 (iz + Nz (kx + nkx iy)).
   std::unique_lock lock(planner_mutex());
   const fftw_iodim real_dims[2] = {{ny_, 3 * nx_, 3 * nz_ * nkx}, {nx_, 3, 3 * nz_}};
-  const fftw_iodim real_many[2] = {{nz_, 3 * nx_ * ny_, 3}, {3, 1, 1}};
-  plans_->forward = fftw_plan_guru_dft_r2c(2, real_dims, 2, real_many, real_.data(),
-                                           as_fftw(spectrum_.data()), FFTW_ESTIMATE);
   const fftw_iodim spec_dims[2] = {{ny_, 3 * nz_ * nkx, 3 * nx_}, {nx_, 3 * nz_, 3}};
-  const fftw_iodim spec_many[2] = {{nz_, 3, 3 * nx_ * ny_}, {3, 1, 1}};
-  plans_->backward = fftw_plan_guru_dft_c2r(2, spec_dims, 2, spec_many, as_fftw(spectrum_.data()),
-                                            real_.data(), FFTW_ESTIMATE);
+  const fftw_iodim components[1] = {{3, 1, 1}};
+  for (int iz = 0; iz < nz_; ++iz) {
+    double* layer = real_.data() + std::size_t{3} * nx_ * ny_ * iz;
+    fftw_complex* layer_spectrum = as_fftw(spectrum_.data() + 3 * iz);
+    if (fftw_plan p = fftw_plan_guru_dft_r2c(2, real_dims, 1, components, layer, layer_spectrum,
+                                             FFTW_ESTIMATE))
+      plans_->forward.push_back(p);
+    if (fftw_plan p = fftw_plan_guru_dft_c2r(2, spec_dims, 1, components, layer_spectrum, layer,
+                                             FFTW_ESTIMATE))
+      plans_->backward.push_back(p);
+  }
   // The Green's function: four fields (a, b), spectrum [mode][a b] → [a b][iy][ix].
   green_.resize(static_cast<std::size_t>(4 * nx_ * ny_));
   green_spectrum_.resize(static_cast<std::size_t>(4 * modes_));
@@ -88,8 +97,9 @@ LatticeSolver::LatticeSolver(const System& system)
                                                     as_fftw(surface_spectrum_.data()),
                                                     surface_field_.data(), FFTW_ESTIMATE);
   lock.unlock();
-  if (!plans_->forward || !plans_->backward || !plans_->green || !plans_->surface_forward ||
-      !plans_->surface_backward)
+  if (plans_->forward.size() != static_cast<std::size_t>(nz_) ||
+      plans_->backward.size() != static_cast<std::size_t>(nz_) || !plans_->green ||
+      !plans_->surface_forward || !plans_->surface_backward)
     throw std::runtime_error("FFTW could not plan the lattice transforms");
 
   const std::size_t blocks = static_cast<std::size_t>(9 * nz_ * modes_);
@@ -222,24 +232,33 @@ void LatticeSolver::for_each_mode(PerMode&& per_mode) const {
   parallel_for(threads_, modes_, per_mode);
 }
 
-void LatticeSolver::transform_forward() {
-  fftw_execute(plans_->forward);
+// Layer by layer, each on one thread (its plan, its part of real_ and of
+// spectrum_), with the copy in (`from`) or out (`to`) of that layer.
+void LatticeSolver::transform_forward(const double* from) {
+  const std::size_t layer = std::size_t{3} * nx_ * ny_;
+  parallel_for(threads_, nz_, [&](std::int64_t iz) {
+    if (from) std::copy_n(from + layer * iz, layer, real_.data() + layer * iz);
+    fftw_execute(plans_->forward[static_cast<std::size_t>(iz)]);
+  });
 }
 
-void LatticeSolver::transform_backward() {
-  fftw_execute(plans_->backward);
+void LatticeSolver::transform_backward(double* to) {
+  const std::size_t layer = std::size_t{3} * nx_ * ny_;
   const double norm = 1.0 / (static_cast<double>(nx_) * ny_);
-  for (double& v : real_) v *= norm;
+  parallel_for(threads_, nz_, [&](std::int64_t iz) {
+    fftw_execute(plans_->backward[static_cast<std::size_t>(iz)]);
+    double* v = real_.data() + layer * iz;
+    for (std::size_t i = 0; i < layer; ++i) v[i] *= norm;
+    if (to) std::copy_n(v, layer, to + layer * iz);
+  });
 }
 
 void LatticeSolver::solve(std::span<const double> r, std::span<double> w) {
   if (gamma_ < 0.0) throw std::logic_error("LatticeSolver::solve before set_gamma");
   ++solves_;
-  std::copy(r.begin(), r.end(), real_.begin());
-  transform_forward();
+  transform_forward(r.data());
   for_each_mode([&](std::int64_t m) { solve_mode(m, &spectrum_[3 * nz_ * m]); });
-  transform_backward();
-  std::copy(real_.begin(), real_.end(), w.begin());
+  transform_backward(w.data());
 }
 
 double LatticeSolver::green(int dx, int dy, int a, int b) const {

@@ -84,8 +84,10 @@ class LatticeSolver {
   // per_mode(m) for every mode, on threads_ OpenMP threads.
   template <class PerMode>
   void for_each_mode(PerMode&& per_mode) const;
-  void transform_forward();   // real_ → spectrum_
-  void transform_backward();  // spectrum_ → real_, scaled by 1/(Nx Ny)
+  // real_ (first copied from `from`, 3N values, unless null) → spectrum_.
+  void transform_forward(const double* from = nullptr);
+  // spectrum_ → real_, scaled by 1/(Nx Ny), then copied to `to` unless null.
+  void transform_backward(double* to = nullptr);
 
   int nx_, ny_, nz_;
   int threads_;
