@@ -75,7 +75,7 @@ def main() -> int:
     for p in pts:
         groups.setdefault((p["nx"], p["ny"], p["nz"], p["coverage"]), []).append(p)
 
-    rows, drops = [], []
+    rows, drops, seeds = [], [], {}
     lattices = sorted({k[:3] for k in groups})
     for lat in lattices:
         stats = {}
@@ -102,6 +102,7 @@ def main() -> int:
             if lo_sem is not None and hi_sem is not None:
                 err = (hi / lo) * math.hypot(hi_sem / hi, lo_sem / lo)
             drops.append((lat, drop, err))
+            seeds[lat] = (len(groups[lat + (LOW,)]), len(groups[lat + (HIGH,)]))
 
     table = sweep_dir / "finite_size.csv"
     with table.open("w", newline="") as f:
@@ -125,6 +126,8 @@ def main() -> int:
         yerr = [100 * e if e is not None else 0 for _, _, e in series]
         ax.errorbar(x, y, yerr=yerr, marker=marker, ls="none", capsize=3, label=label)
         for (lat, d, e), xi in zip(series, x):
+            ax.annotate(f"{lat[0]}×{lat[1]}×{lat[2]}\n{seeds[lat][0]} + {seeds[lat][1]} seeds",
+                        (xi, 100 * d), textcoords="offset points", xytext=(6, 4), fontsize=7)
             print(f"{'x'.join(map(str, lat))}: drop {100 * d:.1f} %"
                   + (f" ± {100 * e:.1f} %" if e is not None else " (one seed: no error)"))
     # Weighted straight line in 1/L through the Nz = 10 widths that have an
