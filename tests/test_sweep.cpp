@@ -586,3 +586,14 @@ TEST_CASE("points side by side run on one thread each; one at a time, on the cas
   CHECK(slurp(box.work / "two" / "sweep_summary.csv") ==
         slurp(box.work / "one" / "sweep_summary.csv"));
 }
+
+TEST_CASE("a --jobs below 1 is bad input, in one readable line", "[sweep]") {
+  Sandbox box;
+  box.write("base.toml", kBase);
+  box.write("tiny.toml", kTiny);
+  const auto before = box.snapshot();
+  const auto r = box.run({"sweep", "tiny.toml", "--jobs", "0"});
+  CHECK(r.code == 2);
+  CHECK(r.err == "error: --jobs: Value 0 not in range 1 to 4096 (see stickslip --help)\n");
+  CHECK(box.snapshot() == before);
+}

@@ -276,7 +276,7 @@ int main(int argc, char** argv) {
   sweep
       ->add_option("--jobs", jobs,
                    "points run at once (default: the number of cores; 1 per MPI rank)")
-      ->check(CLI::PositiveNumber);
+      ->check(CLI::Range(1, 4096));
   sweep->add_option("--set", sweep_sets, "override a case value for every point (repeatable)");
   sweep->add_flag("--overwrite", sweep_overwrite,
                   "recompute points computed by another code version or for another case");
