@@ -123,8 +123,9 @@ nlohmann::json to_json(const Case& c) {
   };
 }
 
-int resolved_threads(const SolverParams& solver) {
+int resolved_threads(const SolverParams& solver, std::int64_t nodes) {
   if (solver.threads > 0) return solver.threads;
+  if (nodes < kMinNodesForThreads) return 1;
 #ifdef _OPENMP
   return omp_get_max_threads();
 #else

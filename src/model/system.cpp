@@ -68,7 +68,7 @@ System::System(const Case& c, std::vector<Contact> contacts)
       ny_(c.lattice.ny),
       nz_(c.lattice.nz),
       n_(std::int64_t{nx_} * ny_ * nz_),
-      threads_(resolved_threads(c.solver)),
+      threads_(resolved_threads(c.solver, n_)),
       contacts_(std::move(contacts)),
       patch_(c.interface.patch) {
   const auto& mat = c.material;

@@ -92,15 +92,24 @@ struct SolverParams {
   // Largest accepted |energy-audit residual| at t_end; 0: 100 × rtol, or
   // 1e-4 for a fixed step. Beyond it the run fails and reports no μ.
   double audit_bound = 0.0;
-  // OpenMP threads of one run (1: serial; 0: every core the process may use,
-  // resolved by resolved_threads). Results do not depend on it, bit for bit;
-  // what it gains: docs/PERFORMANCE.md.
+  // OpenMP threads of one run (1: serial; 0: every core the process may use
+  // where the lattice is large enough to gain, resolved by resolved_threads).
+  // Results do not depend on it, bit for bit; what it gains:
+  // docs/PERFORMANCE.md.
   int threads = 0;
 };
 
-// [solver] threads with 0 resolved: OpenMP's thread count for the process
-// (OMP_NUM_THREADS if set, else the cores it may run on).
-int resolved_threads(const SolverParams& solver);
+// Below this many lattice nodes, [solver] threads = 0 means one thread: on
+// 6×6×4 (144 nodes) two threads made dirk, bdf and imex 1.2–1.4× slower
+// (their parallel loops too small to pay for waking a thread), while
+// 10×10×10 gained 1.33× and 15×15×10 1.3–1.4× (docs/PERFORMANCE.md).
+inline constexpr std::int64_t kMinNodesForThreads = 1000;
+
+// [solver] threads with 0 resolved for a lattice of `nodes` nodes: OpenMP's
+// thread count for the process (OMP_NUM_THREADS if set, else the cores it
+// may run on), or 1 below kMinNodesForThreads. A count the case gives is
+// kept as it is.
+int resolved_threads(const SolverParams& solver, std::int64_t nodes);
 
 // The files a run writes its tables to: one CSV file per table, or one HDF5
 // file (run.h5) with a group per table.
