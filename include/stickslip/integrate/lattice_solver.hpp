@@ -89,9 +89,13 @@ class LatticeSolver {
   // spectrum_ → real_, scaled by 1/(Nx Ny), then copied to `to` unless null.
   void transform_backward(double* to = nullptr);
 
+  // Layers of at least this many nodes get an FFT plan each (threads take
+  // them layer by layer); smaller ones share one plan.
+  static constexpr std::int64_t kLayeredFftPoints = 1024;
   int nx_, ny_, nz_;
   int threads_;
-  std::int64_t modes_;  // Nx/2+1 times Ny (the half spectrum of a real 2D field)
+  int layers_per_group_ = 1;  // of the velocity field's FFT plans
+  std::int64_t modes_;        // Nx/2+1 times Ny (the half spectrum of a real 2D field)
   double gamma_ = -1.0;
   long factorizations_ = 0, solves_ = 0;
   // Per mode and layer, 3×3 complex blocks (column-major, 9 values each):
