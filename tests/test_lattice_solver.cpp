@@ -102,6 +102,36 @@ std::vector<double> random_state(const System& s, unsigned seed) {
   return y;
 }
 
+// How far one Newton step on z − γ f(t, z) = b, with the exact Jacobian at z
+// solved by sparse LU, moves z (relative_difference): zero at an exact stage.
+double direct_newton_change(const System& s, double t, double gamma, const std::vector<double>& b,
+                            const std::vector<double>& z) {
+  const std::int64_t n = 6 * s.num_nodes();
+  std::vector<double> f(b.size());
+  s.rhs(t, z, f);
+  Eigen::VectorXd residual(n);
+  for (std::int64_t i = 0; i < n; ++i) residual[i] = b[i] - (z[i] - gamma * f[i]);
+  const Eigen::VectorXd step = direct_solve(stage_matrix(s, gamma, z), residual);
+  std::vector<double> newton(z.begin(), z.begin() + n);
+  for (std::int64_t i = 0; i < n; ++i) newton[i] += step[i];
+  return relative_difference(s, newton, std::span<const double>(z.data(), n));
+}
+
+// 40 contacts on 12×10×3 (a third of the bottom layer), some pairs adjacent.
+std::vector<Contact> forty_contacts() {
+  std::vector<Contact> contacts;
+  std::mt19937 rng(3);
+  std::vector<bool> taken(120, false);
+  while (contacts.size() < 40) {
+    const int site = static_cast<int>(rng() % 120);
+    if (taken[static_cast<std::size_t>(site)]) continue;
+    taken[static_cast<std::size_t>(site)] = true;
+    contacts.push_back(
+        {site % 12, site / 12, 4e-4 + 1e-4 * static_cast<double>(contacts.size() % 7)});
+  }
+  return contacts;
+}
+
 struct Shape {
   int nx, ny, nz;
 };
@@ -284,18 +314,8 @@ TEST_CASE("a stage with contacts is solved exactly: a direct Newton step from it
       const double t = 1e-4;
       solver.solve(t, gamma, b, weights, z);
 
-      // Residual of z − γ f(t, z) = b, and one Newton step with the exact
-      // Jacobian at z, solved by sparse LU: both must vanish.
-      const std::int64_t n = 6 * s.num_nodes();
-      std::vector<double> f(b.size());
-      s.rhs(t, z, f);
-      Eigen::VectorXd residual(n);
-      for (std::int64_t i = 0; i < n; ++i) residual[i] = b[i] - (z[i] - gamma * f[i]);
-      const Eigen::VectorXd step = direct_solve(stage_matrix(s, gamma, z), residual);
-      std::vector<double> newton(z.begin(), z.begin() + n);
-      for (std::int64_t i = 0; i < n; ++i) newton[i] += step[i];
       INFO(layout.what << ", gamma " << gamma);
-      CHECK(relative_difference(s, newton, std::span<const double>(z.data(), n)) < 1e-10);
+      CHECK(direct_newton_change(s, t, gamma, b, z) < 1e-10);
       // The stage moved the first contact's speed (b held it at 3e-9 m/s):
       // the contacts' forces mattered, the test is not of a trivial stage.
       const std::int64_t w0 = s.w_index(s.sites()[0].node, 0);
@@ -342,16 +362,7 @@ TEST_CASE("a stage with many contacts gives the same bits on 1, 2 and 3 threads"
   // 40 contacts on 12×10×3, from rest to fast slip: the Newton iteration on
   // their coupled speeds runs, with an LU, and each thread count splits the
   // contacts, the lattice's modes and the Newton matrix's columns its own way.
-  std::vector<Contact> contacts;
-  std::mt19937 rng(3);
-  std::vector<bool> taken(120, false);
-  while (contacts.size() < 40) {
-    const int site = static_cast<int>(rng() % 120);
-    if (taken[static_cast<std::size_t>(site)]) continue;
-    taken[static_cast<std::size_t>(site)] = true;
-    contacts.push_back(
-        {site % 12, site / 12, 4e-4 + 1e-4 * static_cast<double>(contacts.size() % 7)});
-  }
+  const std::vector<Contact> contacts = forty_contacts();
   std::vector<std::vector<double>> results;
   std::vector<long> iterations;
   for (int threads : {1, 2, 3}) {
@@ -412,4 +423,39 @@ TEST_CASE(
     }
     CHECK(solutions[1] == solutions[0]);
   }
+}
+
+TEST_CASE(
+    "stages solved with a Newton matrix kept from earlier stages and step sizes are exact, and "
+    "share one LU",
+    "[lattice_solver]") {
+  // A slip's sequence of stages: γ moving by tens of per cent, the contacts'
+  // speeds (from rest to fast slip) changing from stage to stage. The
+  // contacts' Newton steps are solved by Krylov iterations preconditioned
+  // with the LU of the first stage; each stage must still be exact.
+  const System s = make_system(12, 10, 3, forty_contacts());
+  LatticeStageSolver solver(s, std::numeric_limits<double>::infinity());
+  const std::vector<double> base = random_state(s, 5);
+  const double speeds[3][2] = {{3e-9, 1e-9}, {-4e-3, 1e-3}, {5e-2, -2e-2}};
+  const double gammas[] = {1e-7, 1.2e-7, 0.9e-7, 1.5e-7, 1.1e-7, 2e-7};
+  long iterations = 0;
+  for (std::size_t stage = 0; stage < std::size(gammas); ++stage) {
+    std::vector<double> b = base;
+    for (std::size_t k = 0; k < s.sites().size(); ++k) {  // each contact's speed moves
+      const double scale = 1.0 + 0.05 * static_cast<double>((k + stage) % 5);
+      b[s.w_index(s.sites()[k].node, 0)] = scale * speeds[(k + stage / 2) % 3][0];
+      b[s.w_index(s.sites()[k].node, 1)] = scale * speeds[(k + stage / 2) % 3][1];
+    }
+    std::vector<double> weights(b.size());
+    for (std::size_t i = 0; i < b.size(); ++i) weights[i] = 1.0 / (1e-6 * std::abs(b[i]) + 1e-9);
+    std::vector<double> z = b;
+    const double t = 1e-4;
+    iterations += solver.solve(t, gammas[stage], b, weights, z);
+    INFO("stage " << stage << ", gamma " << gammas[stage]);
+    CHECK(direct_newton_change(s, t, gammas[stage], b, z) < 1e-10);
+  }
+  CHECK(iterations > static_cast<long>(std::size(gammas)));  // Newton iterated
+  CHECK(solver.krylov_iterations() > 0);  // the kept LU alone was too slow: Krylov steps
+  // The first stage's LU preconditioned the rest: far fewer LUs than stages.
+  CHECK(solver.contact_factorizations() <= 2);
 }

@@ -56,6 +56,7 @@ SolverStats& operator+=(SolverStats& a, const SolverStats& b) {
   a.convergence_failures += b.convergence_failures;
   a.linear_setups += b.linear_setups;
   a.jacobian_evaluations += b.jacobian_evaluations;
+  a.krylov_iterations += b.krylov_iterations;
   a.error_test_failures += b.error_test_failures;
   a.root_evaluations += b.root_evaluations;
   if (b.last_step != 0.0) a.last_step = b.last_step;

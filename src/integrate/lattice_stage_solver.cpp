@@ -3,6 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+// Eigen's GMRES (Householder Arnoldi, left preconditioned), called as its
+// algorithm function: the operator here is matrix free (one FFT product) and
+// the preconditioner a kept LU in single precision, which the function takes
+// as they are; the GMRES class would want both wrapped as Eigen expressions.
+#include <unsupported/Eigen/IterativeSolvers>
 
 #include "stickslip/model/parallel_for.hpp"
 
@@ -46,7 +51,8 @@ LatticeStageSolver::LatticeStageSolver(const System& system, double max_gamma_la
   for (std::size_t i = 0; i < sites_; ++i)
     site_surface_.push_back(sites[i].ix + std::int64_t{system.nx()} * sites[i].iy);
   const auto n = static_cast<Eigen::Index>(2 * sites_);
-  for (auto* v : {&free_speed_, &beta_, &sigma_, &residual_, &trial_, &step_, &product_})
+  for (auto* v :
+       {&free_speed_, &beta_, &sigma_, &residual_, &trial_, &step_, &product_, &krylov_force_})
     v->resize(n);
   stages_.resize(sites_);
   predicted_speed_.resize(sites_);
@@ -177,6 +183,54 @@ void LatticeStageSolver::factorize_jacobian() {
                [&](std::int64_t j) { fill_columns(static_cast<std::size_t>(j)); });
   jacobian_lu_.emplace(jacobian_);
   ++factorizations_;
+  stale_krylov_ = 0.0;
+}
+
+// J v = v + H (I − E) v at the β whose ∂Σ/∂β are in stages_: one coupling
+// product, no matrix.
+void LatticeStageSolver::apply_jacobian(const Eigen::VectorXd& v, Eigen::VectorXd& out) {
+  for (std::size_t i = 0; i < sites_; ++i) {
+    const auto& e = stages_[i].ds_db;
+    const double v0 = v(2 * i), v1 = v(2 * i + 1);
+    krylov_force_(2 * i) = v0 - (e[0] * v0 + e[1] * v1);
+    krylov_force_(2 * i + 1) = v1 - (e[2] * v0 + e[3] * v1);
+  }
+  apply_coupling(krylov_force_, out);
+  out += v;
+}
+
+// Newton's step J δ = −F(β), by GMRES preconditioned with the kept LU (built
+// at an earlier β, γ or stage). The LU's own step is modified Newton's; the
+// Krylov iterations correct it for how far J has moved since, each for one
+// coupling product and one triangular solve instead of an LU. Returns
+// whether the step reached `relative` (of the preconditioned residual).
+bool LatticeStageSolver::krylov_step(double relative, Eigen::Index max_iterations) {
+  struct Operator {
+    LatticeStageSolver* solver;
+    Eigen::Index rows() const { return solver->step_.size(); }
+    Eigen::Index cols() const { return rows(); }
+    Eigen::VectorXd operator*(const Eigen::VectorXd& v) const {
+      Eigen::VectorXd out(v.size());
+      solver->apply_jacobian(v, out);
+      return out;
+    }
+  };
+  struct Preconditioner {
+    const Eigen::PartialPivLU<Eigen::Ref<Eigen::MatrixXf>>* lu;
+    Eigen::VectorXd solve(const Eigen::VectorXd& r) const {
+      return lu->solve(r.cast<float>()).cast<double>();
+    }
+  };
+  const Eigen::VectorXd rhs = -residual_;
+  step_.setZero();
+  Eigen::Index iterations = max_iterations;
+  double error = relative;
+  // Restarted every 30 iterations: the Arnoldi basis is n × (restart + 1)
+  // doubles, allocated and cleared at each call.
+  Eigen::internal::gmres(Operator{this}, rhs, step_, Preconditioner{&*jacobian_lu_}, iterations,
+                         std::min<Eigen::Index>(max_iterations, 30), error);
+  krylov_iterations_ += iterations;
+  return error <= relative;
 }
 
 long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
@@ -184,15 +238,24 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
   constexpr int kMaxIterations = 60;
   constexpr double kTolerance = 1e-6;  // of the integrator's error weights
   constexpr double kStagnated = 1e-3;  // accepted if no further progress is possible
-  // Rebuild an old Jacobian when, at the contraction it gives, the
-  // iterations still needed would cost more than a factorization: an LU of
-  // the 2 N_c matrix costs about as much as 2 N_c / 20 iterations (at least
-  // 5; measured on 15×15×10 and 30×30×10: docs/PERFORMANCE.md). Not when γ
-  // merely moved: in a slip's small steps H ∝ γ is small and any old
-  // Jacobian contracts fast, and rebuilding on every 20 % change of γ spent
-  // half of Fig. 9's block slip in LUs of the 896² matrix (4× fewer steps
-  // per second than without).
+  // Where the kept LU's own steps (modified Newton) would need more
+  // iterations than an LU costs, the steps become Newton's, by Krylov
+  // iterations preconditioned with the kept LU: an LU of the 2 N_c matrix
+  // costs about as much as 2 N_c / 20 modified Newton iterations (at least
+  // 5; measured on 15×15×10 and 30×30×10: docs/PERFORMANCE.md).
   const double lu_in_iterations = std::max(5.0, static_cast<double>(2 * sites_) / 20.0);
+  // The LU is rebuilt when the Krylov iterations it has cost beyond one a
+  // step since it was built (what a fresh one would need) add up to its
+  // price: ~n/5 Krylov iterations for n = 2 N_c (the LU's n³ flops against
+  // a solve's n² bytes; at n = 3 586, 60×60×10: 3.7 s against 5.6 ms). So a
+  // stale LU costs at most twice what rebuilding it at once would have; and
+  // γ merely moving rebuilds nothing: in a slip's small steps H ∝ γ is small
+  // and any old LU contracts fast (rebuilding on every 20 % change of γ
+  // spent half of Fig. 9's block slip in LUs of the 896² matrix).
+  const double lu_in_krylov = std::max(10.0, static_cast<double>(2 * sites_) / 5.0);
+  // A Krylov step that needs more than half of that is not worth finishing
+  // with the old LU.
+  const auto max_krylov = static_cast<Eigen::Index>(lu_in_krylov / 2.0);
   const double gamma_self = gamma_ * self_green_;
   for (std::size_t i = 0; i < sites_; ++i)
     predicted_speed_[i] = std::hypot(predictor[site_w_[i]], predictor[site_w_[i] + 1]);
@@ -226,19 +289,32 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
   apply_coupling(trial_, product_);
   beta_ = free_speed_ + product_;
   double norm = evaluate(beta_);
-  // Modified Newton: the factorized Jacobian is kept across iterations,
-  // stages, steps and changes of γ while its contraction finishes the solve
-  // for less than a rebuild; otherwise it is rebuilt at the current β.
-  // `fresh`: built at this β.
-  bool fresh = false;
+  // `fresh`: the LU was built at this β; `krylov`: the kept LU's own steps
+  // have gone wrong or slow in this solve, Newton's steps are taken instead.
+  bool fresh = false, krylov = false;
   for (int it = 0; it < kMaxIterations; ++it) {
     if (!std::isfinite(norm)) break;
     if (norm <= kTolerance) return it;
     if (!jacobian_lu_) {
       factorize_jacobian();
       fresh = true;
+      krylov = false;
     }
-    step_ = jacobian_lu_->solve((-residual_).cast<float>()).cast<double>();
+    if (krylov && !fresh) {
+      // Inexact Newton: the linear solve a little more accurate than the
+      // step's own progress; near the end, what is left to gain.
+      const double relative = std::clamp(0.1 * kTolerance / norm, 1e-3, 0.1);
+      const long before = krylov_iterations_;
+      if (krylov_step(relative, max_krylov)) {
+        stale_krylov_ += static_cast<double>(krylov_iterations_ - before - 1);
+        if (stale_krylov_ > lu_in_krylov) jacobian_lu_.reset();  // rebuilt at the next step
+      } else {  // too stale to precondition: rebuild it at this β
+        factorize_jacobian();
+        fresh = true;
+        krylov = false;
+      }
+    }
+    if (!krylov || fresh) step_ = jacobian_lu_->solve((-residual_).cast<float>()).cast<double>();
     // Backtrack while the residual grows (the velocity-weakening branch).
     double fraction = 1.0, trial_norm = 0.0;
     for (;;) {
@@ -248,25 +324,25 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
       fraction *= 0.5;
     }
     if (!(trial_norm < norm)) {
-      if (!fresh) {  // an old Jacobian: rebuild it at the better point, try again
+      if (!fresh && !krylov) {  // the old LU's step: take Newton's from here
         evaluate(beta_);
-        jacobian_lu_.reset();
+        krylov = true;
         continue;
       }
       if (norm <= kStagnated) {  // rounding, not divergence
         evaluate(beta_);
         return it + 1;
       }
-      // A fresh Jacobian and still no decrease: take the damped step anyway
-      // (as before the Jacobian was kept), the next iteration rebuilds at it.
-      jacobian_lu_.reset();
+      // Newton's own step and still no decrease: take the damped step
+      // anyway; Newton's steps continue from it.
+      krylov = true;
     }
-    // A slow contraction with an old Jacobian: rebuild it at the new point
-    // if finishing at this rate would cost more than the rebuild.
-    if (!fresh && trial_norm > kTolerance) {
+    // A slow contraction with the old LU: Newton's steps from here, if
+    // finishing at this rate would cost more than an LU.
+    if (!fresh && !krylov && trial_norm > kTolerance) {
       const double rate = trial_norm / norm;
       const double remaining = std::log(kTolerance / trial_norm) / std::log(rate);
-      if (remaining > lu_in_iterations || it + 1 + remaining > kMaxIterations) jacobian_lu_.reset();
+      if (remaining > lu_in_iterations || it + 1 + remaining > kMaxIterations) krylov = true;
     }
     beta_ = trial_;
     norm = trial_norm;

@@ -106,6 +106,7 @@ void SteppingIntegrator::add_stage_stats(SolverStats& s) const {
   if (lattice_stages_) {
     s.linear_setups = lattice_stages_->lattice().factorizations();
     s.jacobian_evaluations = lattice_stages_->contact_factorizations();
+    s.krylov_iterations = lattice_stages_->krylov_iterations();
   }
 }
 

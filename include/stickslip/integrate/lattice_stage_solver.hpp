@@ -41,14 +41,19 @@ class LatticeStageSolver {
              std::span<const double> weights, std::span<double> z);
 
   const LatticeSolver& lattice() const { return lattice_; }
-  // LU factorizations of the contacts' Newton matrix so far.
+  // LU factorizations of the contacts' Newton matrix so far, and Krylov
+  // iterations on the contacts' Newton steps (each one coupling product and
+  // one solve with the LU).
   long contact_factorizations() const { return factorizations_; }
+  long krylov_iterations() const { return krylov_iterations_; }
 
  private:
   void set_gamma(double gamma);
   long solve_contacts(std::span<const double> predictor, std::span<const double> weights);
   void factorize_jacobian();
   void apply_coupling(const Eigen::VectorXd& x, Eigen::VectorXd& out);
+  void apply_jacobian(const Eigen::VectorXd& v, Eigen::VectorXd& out);
+  bool krylov_step(double relative, Eigen::Index max_iterations);
 
   const System& system_;
   double max_gamma_lambda_;
@@ -67,7 +72,8 @@ class LatticeStageSolver {
   double self_green_ = 0.0;
   // Scratch.
   std::vector<double> zero_, acc_, correction_;
-  Eigen::VectorXd free_speed_, beta_, sigma_, residual_, trial_, step_, product_, trial_force_;
+  Eigen::VectorXd free_speed_, beta_, sigma_, residual_, trial_, step_, product_, trial_force_,
+      krylov_force_;
   // The contacts' Newton matrix, factorized in place (for a γ and β since
   // passed); empty when it is to be rebuilt. In single precision: Newton's
   // residual is exact, so the matrix sets only how fast the iteration
@@ -77,6 +83,9 @@ class LatticeStageSolver {
   Eigen::MatrixXf jacobian_;
   std::optional<Eigen::PartialPivLU<Eigen::Ref<Eigen::MatrixXf>>> jacobian_lu_;
   long factorizations_ = 0;
+  long krylov_iterations_ = 0;
+  // Krylov iterations beyond one a step spent with the LU since it was built.
+  double stale_krylov_ = 0.0;
   std::vector<ContactStage> stages_;
   std::vector<double> predicted_speed_;
 };

@@ -15,17 +15,20 @@ struct SolverStats {
   long convergence_failures = 0;
   long linear_setups = 0;  // dirk, bdf (fft): lattice factorizations M(γ)
   long jacobian_evaluations =
-      0;  // dirk, bdf (fft): LU factorizations of the contacts' Newton matrix
+      0;                       // dirk, bdf (fft): LU factorizations of the contacts' Newton matrix
+  long krylov_iterations = 0;  // dirk, bdf (fft): Krylov iterations on the contacts' Newton steps
   long error_test_failures = 0;
   long root_evaluations = 0;
   double last_step = 0.0;
 };
 
-// JSON with one field per member, both ways (summary.json, checkpoints).
-NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(SolverStats, steps, step_attempts, rhs_explicit, rhs_implicit,
-                                   newton_iterations, convergence_failures, linear_setups,
-                                   jacobian_evaluations, error_test_failures, root_evaluations,
-                                   last_step)
+// JSON with one field per member, both ways (summary.json, checkpoints). A
+// field missing from an older file reads as zero (krylov_iterations came later).
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(SolverStats, steps, step_attempts, rhs_explicit,
+                                                rhs_implicit, newton_iterations,
+                                                convergence_failures, linear_setups,
+                                                jacobian_evaluations, krylov_iterations,
+                                                error_test_failures, root_evaluations, last_step)
 
 // The statistics of a run continued from a checkpoint: counts add up, the
 // last step is the later run's.
