@@ -286,3 +286,25 @@ TEST_CASE("a checkpoint of another code version continues only when asked, and s
   CHECK(written->segments.size() == 2);
   CHECK(written->segments[0].git_commit == "0000000");
 }
+
+TEST_CASE("solver statistics written before krylov_iterations existed read back with it zero",
+          "[restart]") {
+  // A checkpoint's or summary's statistics from before the field: the rest
+  // read back as written, the missing count as none, and sums still add.
+  const nlohmann::json older = {
+      {"steps", 581},          {"step_attempts", 674},         {"rhs_explicit", 0},
+      {"rhs_implicit", 680},   {"newton_iterations", 35234},   {"convergence_failures", 78},
+      {"linear_setups", 235},  {"jacobian_evaluations", 3068}, {"error_test_failures", 15},
+      {"root_evaluations", 0}, {"last_step", 2.6e-6}};
+  SolverStats s = older.get<SolverStats>();
+  CHECK(s.steps == 581);
+  CHECK(s.jacobian_evaluations == 3068);
+  CHECK(s.krylov_iterations == 0);
+  SolverStats later;
+  later.krylov_iterations = 22723;
+  later.steps = 10;
+  s += later;
+  CHECK(s.krylov_iterations == 22723);
+  CHECK(s.steps == 591);
+  CHECK(nlohmann::json(s).at("krylov_iterations") == 22723);
+}
