@@ -186,6 +186,11 @@ void LatticeStageSolver::factorize_jacobian() {
   stale_krylov_ = 0.0;
 }
 
+// The kept LU's answer to J x = r, in its single precision.
+Eigen::VectorXd LatticeStageSolver::solve_with_lu(const Eigen::VectorXd& r) const {
+  return jacobian_lu_->solve(r.cast<float>()).cast<double>();
+}
+
 // J v = v + H (I − E) v at the β whose ∂Σ/∂β are in stages_: one coupling
 // product, no matrix.
 void LatticeStageSolver::apply_jacobian(const Eigen::VectorXd& v, Eigen::VectorXd& out) {
@@ -216,10 +221,8 @@ bool LatticeStageSolver::krylov_step(double relative, Eigen::Index max_iteration
     }
   };
   struct Preconditioner {
-    const Eigen::PartialPivLU<Eigen::Ref<Eigen::MatrixXf>>* lu;
-    Eigen::VectorXd solve(const Eigen::VectorXd& r) const {
-      return lu->solve(r.cast<float>()).cast<double>();
-    }
+    const LatticeStageSolver* solver;
+    Eigen::VectorXd solve(const Eigen::VectorXd& r) const { return solver->solve_with_lu(r); }
   };
   const Eigen::VectorXd rhs = -residual_;
   step_.setZero();
@@ -227,7 +230,7 @@ bool LatticeStageSolver::krylov_step(double relative, Eigen::Index max_iteration
   double error = relative;
   // Restarted every 30 iterations: the Arnoldi basis is n × (restart + 1)
   // doubles, allocated and cleared at each call.
-  Eigen::internal::gmres(Operator{this}, rhs, step_, Preconditioner{&*jacobian_lu_}, iterations,
+  Eigen::internal::gmres(Operator{this}, rhs, step_, Preconditioner{this}, iterations,
                          std::min<Eigen::Index>(max_iterations, 30), error);
   krylov_iterations_ += iterations;
   return error <= relative;
@@ -300,7 +303,7 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
       fresh = true;
       krylov = false;
     }
-    if (krylov && !fresh) {
+    if (krylov) {  // (a fresh LU never is: its own step is Newton's)
       // Inexact Newton: the linear solve a little more accurate than the
       // step's own progress; near the end, what is left to gain.
       const double relative = std::clamp(0.1 * kTolerance / norm, 1e-3, 0.1);
@@ -314,7 +317,7 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
         krylov = false;
       }
     }
-    if (!krylov || fresh) step_ = jacobian_lu_->solve((-residual_).cast<float>()).cast<double>();
+    if (!krylov) step_ = solve_with_lu(-residual_);
     // Backtrack while the residual grows (the velocity-weakening branch).
     double fraction = 1.0, trial_norm = 0.0;
     for (;;) {

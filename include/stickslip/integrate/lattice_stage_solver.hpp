@@ -52,6 +52,7 @@ class LatticeStageSolver {
   long solve_contacts(std::span<const double> predictor, std::span<const double> weights);
   void factorize_jacobian();
   void apply_coupling(const Eigen::VectorXd& x, Eigen::VectorXd& out);
+  Eigen::VectorXd solve_with_lu(const Eigen::VectorXd& r) const;
   void apply_jacobian(const Eigen::VectorXd& v, Eigen::VectorXd& out);
   bool krylov_step(double relative, Eigen::Index max_iterations);
 
