@@ -56,6 +56,8 @@ LatticeStageSolver::LatticeStageSolver(const System& system, double max_gamma_la
     v->resize(n);
   stages_.resize(sites_);
   predicted_speed_.resize(sites_);
+  prescribed_.assign(sites_, 0);
+  prescribed_acceleration_.assign(sites_, {0.0, 0.0});
   // Eigen's LU runs its block updates on every OpenMP thread by default, and
   // chooses its products' blocking by thread count: results could depend on
   // the number of threads. It also mostly spin-waited on these ≤ 900² matrices
@@ -63,6 +65,17 @@ LatticeStageSolver::LatticeStageSolver(const System& system, double max_gamma_la
   // on the other core). A run's threads ([solver] threads) go to the loops
   // whose work is split the same way for any count (see solve_contacts).
   Eigen::setNbThreads(1);
+}
+
+void LatticeStageSolver::prescribe(std::size_t site, std::array<double, 2> acceleration) {
+  if (!prescribed_[site]) prescribed_sites_.push_back(site);
+  prescribed_[site] = 1;
+  prescribed_acceleration_[site] = acceleration;
+}
+
+void LatticeStageSolver::release_all() {
+  for (const std::size_t j : prescribed_sites_) prescribed_[j] = 0;
+  prescribed_sites_.clear();
 }
 
 void LatticeStageSolver::set_gamma(double gamma) {
@@ -111,6 +124,7 @@ long LatticeStageSolver::solve(double t, double gamma, std::span<const double> p
                                std::span<const double> weights, std::span<double> z) {
   const std::size_t n3 = static_cast<std::size_t>(3 * nodes_);
   const auto u = z.subspan(0, n3), w = z.subspan(n3, n3);
+  refused_sites_.clear();
   set_gamma(gamma);
   // r = b_w + γ a_L(t, b_u, 0), then w0 = M⁻¹ r, in place.
   system_.lattice_accelerations(t, u, zero_, acc_);
@@ -134,7 +148,13 @@ long LatticeStageSolver::solve(double t, double gamma, std::span<const double> p
 
   // The quadratures: q = b_q + γ q'(t, z), their rates depending on u and w only.
   z[system_.quadrature_index(System::work_in)] += gamma * system_.power_in(t, z);
-  z[system_.quadrature_index(System::dissipated)] += gamma * system_.dissipation(z);
+  double dissipation = system_.dissipation(z);
+  for (const std::size_t j : prescribed_sites_) {  // −m a_c·s of their law, left out
+    const std::array<double, 2> s{z[site_w_[j]], z[site_w_[j] + 1]};
+    const auto a = system_.site_acceleration(j, s);
+    dissipation += system_.mass() * (a[0] * s[0] + a[1] * s[1]);
+  }
+  z[system_.quadrature_index(System::dissipated)] += gamma * dissipation;
   z[system_.quadrature_index(System::friction_impulse)] += gamma * system_.friction_force(t, z);
 
   // A stage that leaves a contact past its peak force with γ λ > 1 (λ: the
@@ -144,7 +164,12 @@ long LatticeStageSolver::solve(double t, double gamma, std::span<const double> p
   // growth where the error estimate, built from two damped answers, cannot
   // see it: Fig. 9 at rtol 1e-4 stepped over the block's slip in one step of
   // 5e-4 s ending at h λ = 5 448, and a pair at rtol 1e-2 over its slips.
-  if (gamma * system_.weakening_rate(z) > max_gamma_lambda_)
+  for (std::size_t j = 0; j < sites_; ++j)
+    if (!prescribed_[j] &&
+        gamma * system_.site_weakening_rate(j, {z[site_w_[j]], z[site_w_[j] + 1]}) >
+            max_gamma_lambda_)
+      refused_sites_.push_back(j);
+  if (!refused_sites_.empty())
     throw StageNotConverged(
         "a contact's slip grows faster than the step resolves (gamma lambda > 1)");
   return iterations;
@@ -265,6 +290,15 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
 
   // F(β) and its weighted max norm; Σ(β) into sigma_, ∂Σ/∂β into stages_.
   auto stage = [&](const Eigen::VectorXd& beta, std::size_t i) {
+    if (prescribed_[i]) {  // s − γ ḡ a = β with a given: s = β + γ ḡ a, ∂s/∂β = I
+      const auto& a = prescribed_acceleration_[i];
+      stages_[i].s = {beta(2 * i) + gamma_self * a[0], beta(2 * i + 1) + gamma_self * a[1]};
+      stages_[i].ds_db = {1.0, 0.0, 0.0, 1.0};
+      stages_[i].iterations = 0;
+      sigma_(2 * i) = stages_[i].s[0];
+      sigma_(2 * i + 1) = stages_[i].s[1];
+      return;
+    }
     stages_[i] = system_.site_stage(i, gamma_self, {beta(2 * i), beta(2 * i + 1)},
                                     predicted_speed_[i], true);
     sigma_(2 * i) = stages_[i].s[0];
@@ -285,7 +319,9 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
 
   // Start from the predictor's contact forces: β = s0 + γ ḡ H a_c(s_pred).
   for (std::size_t i = 0; i < sites_; ++i) {
-    const auto a = system_.site_acceleration(i, {predictor[site_w_[i]], predictor[site_w_[i] + 1]});
+    const auto a = prescribed_[i] ? prescribed_acceleration_[i]
+                                  : system_.site_acceleration(
+                                        i, {predictor[site_w_[i]], predictor[site_w_[i] + 1]});
     trial_(2 * i) = gamma_self * a[0];
     trial_(2 * i + 1) = gamma_self * a[1];
   }

@@ -384,16 +384,28 @@ long System::solve_implicit_stage(double gamma, std::span<const double> predicto
 
 double System::weakening_rate(std::span<const double> y) const {
   double rate = 0.0;
-  for (std::size_t j = 0; j < sites_.size(); ++j) {
-    const auto s = site_velocity(j, y);
-    const double speed = std::hypot(s[0], s[1]);
-    if (!(speed > 0.0)) continue;  // at rest the force rises with speed
-    // The Jacobian block along ŝ: ∂a/∂|s|, positive past the peak.
-    const auto b = site_block(j, y);
-    const double nx = s[0] / speed, ny = s[1] / speed;
-    rate = std::max(rate, nx * (b[0] * nx + b[1] * ny) + ny * (b[2] * nx + b[3] * ny));
-  }
+  for (std::size_t j = 0; j < sites_.size(); ++j)
+    rate = std::max(rate, site_weakening_rate(j, site_velocity(j, y)));
   return rate;
+}
+
+double System::site_weakening_rate(std::size_t j, std::array<double, 2> s) const {
+  const double speed = std::hypot(s[0], s[1]);
+  if (!(speed > 0.0)) return 0.0;  // at rest the force rises with speed
+  // The Jacobian block along ŝ: ∂a/∂|s|, positive past the peak.
+  const auto b = contact_jacobian(law_, contact_force_scale_, eta_c_, sites_[j].v_star, s[0], s[1]);
+  const double nx = s[0] / speed, ny = s[1] / speed;
+  return std::max(0.0, nx * (b[0] * nx + b[1] * ny) + ny * (b[2] * nx + b[3] * ny));
+}
+
+double System::site_damping_rate(std::size_t j, std::array<double, 2> s) const {
+  const auto b = contact_jacobian(law_, contact_force_scale_, eta_c_, sites_[j].v_star, s[0], s[1]);
+  const double speed = std::hypot(s[0], s[1]);
+  if (!(speed > 0.0)) return -std::max(b[0], b[3]);  // isotropic at rest
+  const double nx = s[0] / speed, ny = s[1] / speed;
+  const double radial = nx * (b[0] * nx + b[1] * ny) + ny * (b[2] * nx + b[3] * ny);
+  const double tangential = ny * (b[0] * ny - b[1] * nx) - nx * (b[2] * ny - b[3] * nx);
+  return -std::max(radial, tangential);
 }
 
 double System::friction_force(double t, std::span<const double> y) const {

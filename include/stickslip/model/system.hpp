@@ -162,6 +162,8 @@ class System {
   EnergyTerms energy(double t, std::span<const double> y) const;
   double power_in(double t, std::span<const double> y) const;
   double dissipation(std::span<const double> y) const;
+  // D's lattice part alone: the faces' dashpots and the drive's (§8) [W].
+  double lattice_dissipation(std::span<const double> y) const;
   // Relative energy-audit residual [ΔE − ∫(P_in − D)] / ∫ P_in (§8), from y(t)
   // and the state it started from.
   double energy_residual(double t, std::span<const double> y, std::span<const double> y0) const;
@@ -175,11 +177,18 @@ class System {
   void stick_slip_roots(std::span<const double> y, std::span<const int> watched,
                         std::span<double> g) const;
   bool slipping(std::size_t i, std::span<const double> y) const;
+  double slip_threshold() const { return slip_threshold_; }  // κ of §9
   // The fastest growth rate of a site on the weakening branch, λ = −d|a_c|/d|s|
   // where the contact force falls with speed (past v*), 0 if none is [1/s].
   // A step with h λ ≫ 1 lets an L-stable method damp a slip's growth, and the
   // error estimate, built from two damped answers, cannot see it (steps.csv).
   double weakening_rate(std::span<const double> y) const;
+  // The same for site j alone, at in-plane velocity s [1/s].
+  double site_weakening_rate(std::size_t j, std::array<double, 2> s) const;
+  // How fast site j's own law damps a change of its velocity at s: the
+  // smaller of −∂a/∂|s| along ŝ and −a's tangential slope; negative past
+  // the peak (where it weakens) [1/s].
+  double site_damping_rate(std::size_t j, std::array<double, 2> s) const;
   // |F_contact| of contact i, the sum over its sites [N].
   double contact_force(std::size_t i, std::span<const double> y) const;
 
@@ -217,7 +226,6 @@ class System {
     const std::int64_t wx = w_index(sites_[j].node, 0);
     return {y[wx], y[wx + 1]};
   }
-  double lattice_dissipation(std::span<const double> y) const;
   double contact_dissipation(std::span<const double> y) const;
 
   // The lattice's springs and dashpots (MODEL.md §3, §5), described once:
