@@ -24,6 +24,13 @@ constexpr MethodInfo kMethods[] = {
      "ARKStep explicit Runge-Kutta", "stage"},
     {Method::rk4,  "rk4",  Package::arkstep, 4, 4, 4, false, true,  false, StageSolve::none,
      "classic fourth-order Runge-Kutta (ARKStep)", "stage"},
+    // dirk's ESDIRK (orders 3, 4) for the lattice and the slow contacts, each
+    // fast contact on sub-steps of its own (integrate/multirate_integrator.hpp).
+    {Method::multirate, "multirate", Package::own, 3, 4, 4, true, false, false,
+     StageSolve::exact_lattice,
+     "multirate ESDIRK: lattice and slow contacts on coarse steps solved exactly (lattice by "
+     "FFT, contacts by Newton on their coupled speeds), each fast contact on adaptive sub-steps "
+     "of its own", "stage"},
 };
 
 constexpr LinearSolverInfo kLinearSolvers[] = {
@@ -44,7 +51,7 @@ std::span<const LinearSolverInfo> linear_solvers() {
 }
 
 const char* package_name(Package p) {
-  return p == Package::cvode ? "CVODE" : "ARKStep";
+  return p == Package::cvode ? "CVODE" : p == Package::own ? "stickslip" : "ARKStep";
 }
 
 const MethodInfo& method_info(Method m) {

@@ -530,6 +530,21 @@ void check_consistency(const Reader& r, const Case& c) {
         {{"solver.linear_solver", "applies to method = " + implicit_methods + " only, not " + name},
          {"solver.method", "solves no linear systems: leave [solver] linear_solver out"}});
   }
+  // multirate sub-steps a contact node alone, its neighbours given: a patch's
+  // nodes are each other's neighbours, and a one-layer lattice's contact
+  // nodes are driven (integrate/contact_substeps.hpp).
+  if (s.method == Method::multirate && c.interface.patch != 1)
+    r.fail_first({{"interface.patch",
+                   "must be 1 with method = " + name + " (it steps single-site contacts)"},
+                  {"solver.method", name + " steps single-site contacts: leave patch at 1"}});
+  if (s.method == Method::multirate)
+    for (const auto& [key, nodes] : {std::pair<std::string, int>{"lattice.nx", c.lattice.nx},
+                                     {"lattice.ny", c.lattice.ny},
+                                     {"lattice.nz", c.lattice.nz}})
+      if (nodes < 2)
+        r.fail_first(
+            {{key, "must be >= 2 with method = " + name + ", got " + std::to_string(nodes)},
+             {"solver.method", name + " needs a lattice of at least 2x2x2 nodes"}});
   if (s.order != 0 && (s.order < m.min_order || s.order > m.max_order))
     r.fail_first({{"solver.order", "must be 0 (default) or in [" + std::to_string(m.min_order) +
                                        ", " + std::to_string(m.max_order) + "] for method = " +

@@ -6,6 +6,7 @@
 
 #include "stickslip/integrate/arkstep_integrator.hpp"
 #include "stickslip/integrate/cvode_integrator.hpp"
+#include "stickslip/integrate/multirate_integrator.hpp"
 
 namespace stickslip {
 
@@ -43,6 +44,9 @@ std::unique_ptr<Integrator> make_integrator(const System& system, const SolverPa
                                                  std::move(options));
     case Package::cvode:
       return std::make_unique<CvodeIntegrator>(system, chosen, y0, t0, t_stop, std::move(options));
+    case Package::own:
+      return std::make_unique<MultirateIntegrator>(system, chosen, y0, t0, t_stop,
+                                                   std::move(options));
   }
   throw std::logic_error("make_integrator: no adapter for the method's package");
 }
@@ -59,6 +63,10 @@ SolverStats& operator+=(SolverStats& a, const SolverStats& b) {
   a.krylov_iterations += b.krylov_iterations;
   a.error_test_failures += b.error_test_failures;
   a.root_evaluations += b.root_evaluations;
+  a.substeps += b.substeps;
+  a.substep_failures += b.substep_failures;
+  a.fast_contact_steps += b.fast_contact_steps;
+  a.coupling_iterations += b.coupling_iterations;
   if (b.last_step != 0.0) a.last_step = b.last_step;
   return a;
 }

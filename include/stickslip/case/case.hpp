@@ -16,7 +16,7 @@ enum class InitialState { rest, sliding };  // u = w = 0, or w^x = v everywhere
 // imex: ARKStep additive RK, contacts implicit (exact per-contact stage solve);
 // dirk: ARKStep fully implicit with KLU; bdf: CVODE with KLU; erk: ARKStep
 // explicit; rk4: the classic fourth-order Runge–Kutta at a fixed step.
-enum class Method { imex, dirk, bdf, erk, rk4, automatic };
+enum class Method { imex, dirk, bdf, erk, rk4, multirate, automatic };
 // How dirk and bdf solve their stage equations: "fft" solves each exactly (the
 // lattice by FFT in x, y and banded solves along z, the contacts by Newton on
 // their coupled speeds); "klu" runs SUNDIALS' Newton with KLU on the sparse

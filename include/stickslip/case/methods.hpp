@@ -12,7 +12,8 @@
 namespace stickslip {
 
 // The SUNDIALS package that integrates a method.
-enum class Package { arkstep, cvode };
+// `own`: stepped here, not by a SUNDIALS package (multirate).
+enum class Package { arkstep, cvode, own };
 
 // How the implicit part of a step is solved.
 enum class StageSolve {

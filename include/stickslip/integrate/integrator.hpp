@@ -27,6 +27,9 @@ namespace stickslip {
 struct StepRecord {
   double t = 0.0, h = 0.0, error = 0.0;
   double h_lambda = 0.0;  // h × System::weakening_rate at the step's end
+  // multirate: the contacts this step left to their own sub-steps, and those
+  // sub-steps (0 for the other methods).
+  long fast_contacts = 0, substeps = 0;
 };
 
 struct IntegratorOptions {

@@ -20,15 +20,25 @@ struct SolverStats {
   long error_test_failures = 0;
   long root_evaluations = 0;
   double last_step = 0.0;
+  // multirate: the fast contacts' sub-steps (accepted, rejected), the
+  // contacts a coarse step left to their sub-steps (summed over the steps),
+  // and the coarse steps redone for their coupling.
+  long substeps = 0;
+  long substep_failures = 0;
+  long fast_contact_steps = 0;
+  long coupling_iterations = 0;
 };
 
 // JSON with one field per member, both ways (summary.json, checkpoints). A
-// field missing from an older file reads as zero (krylov_iterations came later).
+// field missing from an older file reads as zero (krylov_iterations and the
+// multirate counts came later).
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(SolverStats, steps, step_attempts, rhs_explicit,
                                                 rhs_implicit, newton_iterations,
                                                 convergence_failures, linear_setups,
                                                 jacobian_evaluations, krylov_iterations,
-                                                error_test_failures, root_evaluations, last_step)
+                                                error_test_failures, root_evaluations, last_step,
+                                                substeps, substep_failures, fast_contact_steps,
+                                                coupling_iterations)
 
 // The statistics of a run continued from a checkpoint: counts add up, the
 // last step is the later run's.

@@ -1,0 +1,117 @@
+#pragma once
+// method = "multirate": contacts on their own clocks.
+//
+// In a block slip every contact's start and stop used to collapse the one
+// global step (docs/PERFORMANCE.md, "What sets the step in a block slip"):
+// a re-sticking contact's speed halves at every step for ~15 ns, and the
+// whole lattice was stepped at 1e-11 s through it. Here a coarse step of
+// dirk's ESDIRK advances the lattice and the slow contacts, with the exact
+// FFT stage solve (LatticeStageSolver); each fast contact advances on
+// sub-steps of its own (ContactSubsteps) with the rest of the lattice's force
+// on it given by the coarse level, and hands its impulse back to the coarse
+// level. One coarse step:
+//
+//  1. Partition (fast_contacts): which contacts the coarse step cannot resolve.
+//  2. Each fast contact's sub-steps over [t, t + H] under Φ(t), the rest of
+//     the lattice's acceleration on its node: first Φ's Taylor line at t, then
+//     the coarse step's own cubic (below).
+//  3. The coarse ESDIRK step of everything, each fast contact's law replaced
+//     by the line a(τ) = p0 + p1 τ with the same ∫a dτ and ∫τ a dτ as its
+//     sub-steps: its neighbours then see its impulse and displacement.
+//  4. If Φ along the coarse stages differs from the Φ the sub-steps used by
+//     more than the tolerance can absorb (H |ΔΦ| weighted), 2–3 again with
+//     the coarse step's Φ (at most kCouplingIterations times).
+//  5. Error control: the coarse embedded estimate over every component but
+//     the fast contacts' in-plane u and w (weighted RMS ≤ 1); each slow
+//     contact's own in-plane velocity error ≤ 1 (a contact that fails it, or
+//     whose stage is refused for γλ > 1, turns fast and the step is retried
+//     at the same H); each fast contact's sub-steps ≤ 1 on their own.
+//  6. The fast contacts' in-plane u, w at t + H are their sub-steps'; their
+//     dissipation (integrated on the sub-steps) joins the quadrature.
+//
+// Outputs inside a step are interpolated (cubic Hermite; a fast contact's from
+// its sub-steps), and stick/slip events are located on the fine solution of a
+// fast contact, on the coarse one of a slow contact. Nothing here knows of
+// SUNDIALS but the table it loads.
+
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "stickslip/integrate/contact_substeps.hpp"
+#include "stickslip/integrate/integrator.hpp"
+#include "stickslip/integrate/lattice_stage_solver.hpp"
+
+namespace stickslip {
+
+class MultirateIntegrator final : public Integrator {
+ public:
+  MultirateIntegrator(const System& system, const SolverParams& solver, std::span<const double> y0,
+                      double t0, double t_stop, IntegratorOptions options);
+  ~MultirateIntegrator() override;
+
+  double advance(double t_out, std::span<double> y) override;
+  std::span<const int> roots() const override { return roots_; }
+  SolverStats stats() const override;
+  nlohmann::json description() const override;
+
+  // Coupling iterations (steps 2–4 above) allowed in one coarse step.
+  static constexpr int kCouplingIterations = 4;
+  // The coupling error H |ΔΦ| (weighted) that a fast contact may carry.
+  static constexpr double kCouplingTolerance = 0.1;
+
+ private:
+  struct Step;  // one accepted coarse step: what outputs and events read
+  enum class Attempt { accepted, retry, shrink };
+
+  Attempt attempt(double H);
+  void begin_step_derivative();
+  void accept(double H);
+  std::vector<std::size_t> fast_contacts(double H) const;
+  void interpolate(double t, std::span<double> y) const;
+  // The earliest stick/slip crossing of a watched contact in (t_from, t_to];
+  // false if none.
+  bool next_root(double t_from, double t_to, double& t_root);
+  void record(double error);
+
+  const System& system_;
+  SolverParams solver_;
+  IntegratorOptions options_;
+  EsdirkTable table_;
+  std::vector<NodeCoupling> couplings_;
+  std::vector<double> atol_;
+  LatticeStageSolver stages_;
+  std::size_t n_;  // state size
+  double t_stop_;
+  long poll_steps_;
+
+  // The state at the end of the last accepted step, t_, and what the next
+  // step starts from: the lattice's part of f there (u' = w, a_L, P_in,
+  // the lattice's D, F_f) and each site's a_c as its last stage solve had it.
+  double t_;
+  std::vector<double> y_, lattice_f_;
+  std::vector<std::array<double, 2>> contact_a_;
+  double h_;                     // the next coarse step
+  std::vector<double> substep_;  // each site's next sub-step
+  // Steps each contact stays fast after a coarse attempt could not follow it
+  // (its own error or γλ): without this every step finds out again, one
+  // failed coarse attempt per contact.
+  std::vector<int> forced_fast_;
+  static constexpr int kFastHold = 3;
+  std::unique_ptr<Step> step_, trial_;  // the last accepted step, and the one being tried
+
+  // Events.
+  std::vector<int> roots_;
+  std::vector<int> sign_;  // each watched contact's side at t_reached_: +1 slipping
+  double t_reached_;       // the last time advance() returned
+
+  // Scratch.
+  std::vector<double> b_, weights_, error_;
+  std::vector<std::vector<double>> f_;  // stage derivatives
+  std::vector<std::vector<double>> z_;  // stage values
+
+  SolverStats stats_;
+  long steps_since_poll_ = 0;
+};
+
+}  // namespace stickslip

@@ -1,0 +1,152 @@
+// method = "multirate" (integrate/multirate_integrator.hpp): its table, a fast
+// contact's sub-steps against a direct fine solution of the same node, and
+// whole runs against single-rate dirk at a far tighter tolerance.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <vector>
+
+#include "stickslip/integrate/contact_substeps.hpp"
+#include "stickslip/integrate/integrator.hpp"
+#include "stickslip/integrate/tolerances.hpp"
+#include "test_cases.hpp"
+
+using namespace stickslip;
+
+TEST_CASE("multirate's ESDIRK table: order 4, a third-order embedding, stiffly accurate",
+          "[multirate]") {
+  const EsdirkTable t = esdirk_table(4);
+  REQUIRE(t.stages == 6);
+  // Σ b c^k = 1/(k+1) for k < order; the embedding d for k < 3.
+  for (int k = 0; k < 4; ++k) {
+    double b = 0.0, d = 0.0;
+    for (int i = 0; i < t.stages; ++i) {
+      b += t.b[i] * std::pow(t.c[i], k);
+      d += t.d[i] * std::pow(t.c[i], k);
+    }
+    CHECK(b == Approx(1.0 / (k + 1)).epsilon(1e-12));
+    if (k < 3) CHECK(d == Approx(1.0 / (k + 1)).epsilon(1e-12));
+  }
+  for (int j = 0; j < t.stages; ++j) CHECK(t.at(t.stages - 1, j) == t.b[j]);
+  CHECK(t.at(0, 0) == 0.0);
+}
+
+TEST_CASE("a fast contact's sub-steps converge to a direct solution of its node", "[multirate]") {
+  // The node of contact 0 of the pair, slipping at ~5 v* and decelerating
+  // under its friction, the rest of the lattice a given Φ(t). Reference: the
+  // same four equations by classic RK4 with 2e5 steps of 1e-13 s (the law's
+  // rate here is ~1e9 s⁻¹).
+  const Case c = test::two_contact_case();
+  const System system = test::make_system(c);
+  const auto couplings = node_couplings(system);
+  const NodeCoupling& coupling = couplings[0];
+  const double v_star = system.contacts()[0].v_star, H = 2e-8;
+  Forcing forcing = Forcing::taylor(H, {2e5, -1e4}, {3e11, 1e11});
+  const std::array<double, 4> x0{1e-7, -2e-8, 5 * v_star, 0.3 * v_star};
+
+  auto f = [&](double tau, const std::array<double, 4>& x) {
+    const auto phi = forcing.at(tau);
+    const auto a = system.site_acceleration(0, {x[2], x[3]});
+    return std::array<double, 4>{
+        x[2], x[3], phi[0] + coupling.stiffness * x[0] + coupling.damping * x[2] + a[0],
+        phi[1] + coupling.stiffness * x[1] + coupling.damping * x[3] + a[1]};
+  };
+  std::array<double, 4> ref = x0;
+  const int n = 200000;
+  const double h = H / n;
+  for (int i = 0; i < n; ++i) {
+    const double t = i * h;
+    auto axpy = [](const std::array<double, 4>& x, double s, const std::array<double, 4>& k) {
+      std::array<double, 4> out{};
+      for (int j = 0; j < 4; ++j) out[j] = x[j] + s * k[j];
+      return out;
+    };
+    const auto k1 = f(t, ref), k2 = f(t + h / 2, axpy(ref, h / 2, k1)),
+               k3 = f(t + h / 2, axpy(ref, h / 2, k2)), k4 = f(t + h, axpy(ref, h, k3));
+    for (int j = 0; j < 4; ++j) ref[j] += h / 6 * (k1[j] + 2 * k2[j] + 2 * k3[j] + k4[j]);
+  }
+  REQUIRE(std::hypot(ref[2], ref[3]) < 0.9 * std::hypot(x0[2], x0[3]));  // it does change
+
+  const EsdirkTable table = esdirk_table(4);
+  std::vector<double> errors;
+  for (const double rtol : {1e-3, 1e-5, 1e-7}) {
+    // The run's absolute tolerances at this rtol (integrate/tolerances.hpp).
+    const ToleranceScales scale = tolerance_scales(system);
+    const double atol_u = rtol * scale.displacement, atol_w = rtol * scale.velocity;
+    const ContactSubsteps substeps(system, table, rtol, {atol_u, atol_u, atol_w, atol_w});
+    const auto a0 = system.site_acceleration(0, {x0[2], x0[3]});
+    const SubstepResult r = substeps.advance(0, coupling, H, x0, a0, forcing, H / 16);
+    const auto& end = r.points.back();
+    CHECK(end.tau == H);
+    const double error = std::max(std::abs(end.x[2] - ref[2]), std::abs(end.x[3] - ref[3])) /
+                         std::hypot(ref[2], ref[3]);
+    errors.push_back(error);
+    // The impulse handed to the coarse level is the velocity change less
+    // what the lattice did: ∫a_c = Δw − ∫(Φ + K u + C w).
+    CHECK(std::isfinite(r.impulse[0]));
+  }
+  INFO("relative velocity errors at rtol 1e-3, 1e-5, 1e-7: " << errors[0] << ", " << errors[1]
+                                                             << ", " << errors[2]);
+  // Within the tolerance asked for (the velocity's relative error, as the
+  // error weights measure it).
+  CHECK(errors[0] < 10 * 1e-3);
+  CHECK(errors[1] < 10 * 1e-5);
+  CHECK(errors[2] < 10 * 1e-7);
+}
+
+namespace {
+
+struct Events {
+  std::vector<std::pair<double, int>> list;  // (time, +contact+1 slip / −(contact+1) stick)
+  double impulse = 0.0;                      // ∫F_f dt at the end
+  double residual = 0.0;                     // the energy audit's
+  SolverStats stats;
+};
+
+Events run(const System& system, Method method, double rtol, double t_end) {
+  SolverParams p;
+  p.method = method;
+  p.rtol = rtol;
+  IntegratorOptions options;
+  options.watched_contacts = {0, 1};
+  std::vector<double> y(static_cast<std::size_t>(system.size())), y0(y.size());
+  system.initial_state(InitialState::rest, y0);
+  y = y0;
+  auto integrator = make_integrator(system, p, y, t_end, options);
+  Events e;
+  double t = 0.0;
+  while (t < t_end) {
+    t = integrator->advance(t_end, y);
+    const auto roots = integrator->roots();
+    for (int k = 0; k < 2; ++k)
+      if (roots[k] != 0) e.list.emplace_back(t, roots[k] * (k + 1));
+  }
+  e.impulse = y[system.quadrature_index(System::friction_impulse)];
+  e.residual = system.energy_residual(t_end, y, y0);
+  e.stats = integrator->stats();
+  return e;
+}
+
+}  // namespace
+
+TEST_CASE("multirate on the Fig. 10b pair: the slips of dirk at a far tighter tolerance",
+          "[multirate]") {
+  const Case c = test::two_contact_case();
+  const System system = test::make_system(c);
+  const double t_end = 1.2e-3;
+  const Events reference = run(system, Method::dirk, 1e-10, t_end);
+  const Events mr = run(system, Method::multirate, 1e-7, t_end);
+  REQUIRE(reference.list.size() >= 8);  // both contacts slip several times
+  REQUIRE(mr.list.size() == reference.list.size());
+  double worst = 0.0;
+  for (std::size_t i = 0; i < mr.list.size(); ++i) {
+    CHECK(mr.list[i].second == reference.list[i].second);
+    worst = std::max(worst, std::abs(mr.list[i].first - reference.list[i].first));
+  }
+  INFO("largest slip/stick time difference " << worst << " s; fast contact-steps "
+                                             << mr.stats.fast_contact_steps);
+  CHECK(worst < 2e-8);  // a slip lasts ~3 µs; its events move by < 1 % of that
+  CHECK(mr.impulse == Approx(reference.impulse).epsilon(1e-6));
+  CHECK(mr.stats.fast_contact_steps > 0);  // the slips were taken on sub-steps
+  CHECK(mr.stats.substeps > mr.stats.fast_contact_steps);
+  CHECK(std::abs(mr.residual) < 100 * 1e-7);  // the audit's bound at this rtol
+}
