@@ -3,11 +3,16 @@
 // whole runs against single-rate dirk at a far tighter tolerance.
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
 #include <vector>
 
 #include "stickslip/integrate/contact_substeps.hpp"
 #include "stickslip/integrate/integrator.hpp"
 #include "stickslip/integrate/tolerances.hpp"
+#include "stickslip/run/run.hpp"
+#include "temp_dir.hpp"
 #include "test_cases.hpp"
 
 using namespace stickslip;
@@ -149,4 +154,38 @@ TEST_CASE("multirate on the Fig. 10b pair: the slips of dirk at a far tighter to
   CHECK(mr.stats.fast_contact_steps > 0);  // the slips were taken on sub-steps
   CHECK(mr.stats.substeps > mr.stats.fast_contact_steps);
   CHECK(std::abs(mr.residual) < 100 * 1e-7);  // the audit's bound at this rtol
+}
+
+TEST_CASE("multirate's steps.csv says how many contacts each step left to their sub-steps",
+          "[multirate][steps]") {
+  Case c = test::two_contact_case();
+  c.run.t_end = 9e-4;  // through contact 0's first slip (~0.7 ms)
+  c.run.average_from = 0.0;
+  c.output.steps = true;
+  c.solver.method = Method::multirate;
+  test::TempDir dir("stickslip_test_multirate_steps");
+  RunOptions options{dir.path / "run", false, true};
+  const Summary summary = run_case(c, options);
+  std::ifstream in(options.out_dir / "steps.csv");
+  std::string line;
+  std::getline(in, line);
+  CHECK(line == "t,h,error,h_lambda,fast_contacts,substeps");
+  long rows = 0, fast_rows = 0, substeps = 0, fast_steps = 0;
+  while (std::getline(in, line)) {
+    double t, h, e, hl;
+    long fast, sub;
+    REQUIRE(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%ld,%ld", &t, &h, &e, &hl, &fast, &sub) ==
+            6);
+    CHECK(fast >= 0);
+    CHECK(fast <= 2);
+    CHECK((fast == 0) == (sub == 0));  // sub-steps exactly where a contact was fast
+    ++rows;
+    fast_rows += fast > 0;
+    fast_steps += fast;
+    substeps += sub;
+  }
+  CHECK(rows == summary.solver_stats.steps);
+  CHECK(fast_rows > 0);
+  CHECK(fast_steps == summary.solver_stats.fast_contact_steps);
+  CHECK(substeps <= summary.solver_stats.substeps);  // the stats count retried attempts' too
 }

@@ -238,23 +238,37 @@ class EventsRecorder final : public Recorder {
   std::vector<double> pair_t_, pair_va_, pair_vb_;
 };
 
-// steps: every accepted step's size, error estimate and h λ.
+// steps: every accepted step's size, error estimate and h λ; with method =
+// "multirate" also how many contacts the step left to their own sub-steps,
+// and those sub-steps.
 class StepsRecorder final : public Recorder {
  public:
   static constexpr const char* kTable = "steps";
   explicit StepsRecorder(const RecorderSetup& s)
-      : table_(open_table(
-            s,
-            {kTable, {time_column(), real("h", "s"), real("error", "1"), real("h_lambda", "1")}})) {
-  }
+      : multirate_(s.c.solver.method == Method::multirate), table_(open_table(s, schema())) {}
   bool wants_steps() const override { return true; }
   void step(const StepRecord& r) override {
-    const double row[4] = {r.t, r.h, r.error, r.h_lambda};
-    table_->append(row);
+    const double row[6] = {r.t,
+                           r.h,
+                           r.error,
+                           r.h_lambda,
+                           static_cast<double>(r.fast_contacts),
+                           static_cast<double>(r.substeps)};
+    table_->append(std::span(row, multirate_ ? 6 : 4));
   }
   void flush() override { table_->flush(); }
 
  private:
+  TableSpec schema() const {
+    TableSpec t{kTable, {time_column(), real("h", "s"), real("error", "1"), real("h_lambda", "1")}};
+    if (multirate_) {
+      t.columns.push_back(integer("fast_contacts"));
+      t.columns.push_back(integer("substeps"));
+    }
+    return t;
+  }
+
+  bool multirate_;
   std::unique_ptr<Table> table_;
 };
 
