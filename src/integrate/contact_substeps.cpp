@@ -147,12 +147,9 @@ namespace {
 std::array<double, 4> hermite_at(const SubstepPoint& p, const SubstepPoint& q, double tau) {
   const double h = q.tau - p.tau;
   if (!(h > 0.0)) return q.x;
-  const double s = std::clamp((tau - p.tau) / h, 0.0, 1.0);
-  const double h00 = (1 + 2 * s) * (1 - s) * (1 - s), h10 = s * (1 - s) * (1 - s);
-  const double h01 = s * s * (3 - 2 * s), h11 = s * s * (s - 1);
+  const auto w = hermite_weights(std::clamp((tau - p.tau) / h, 0.0, 1.0), h);
   std::array<double, 4> out{};
-  for (int k = 0; k < 4; ++k)
-    out[k] = h00 * p.x[k] + h10 * h * p.f[k] + h01 * q.x[k] + h11 * h * q.f[k];
+  for (int k = 0; k < 4; ++k) out[k] = w.a * p.x[k] + w.b * p.f[k] + w.c * q.x[k] + w.d * q.f[k];
   return out;
 }
 

@@ -459,11 +459,9 @@ void MultirateIntegrator::interpolate(double t, std::span<double> y) const {
   }
   const Step& st = *step_;
   const double tau = t - st.t0, h = st.H;
-  const double u = std::clamp(tau / h, 0.0, 1.0);
-  const double h00 = (1 + 2 * u) * (1 - u) * (1 - u), h10 = u * (1 - u) * (1 - u);
-  const double h01 = u * u * (3 - 2 * u), h11 = u * u * (u - 1);
+  const auto w = hermite_weights(std::clamp(tau / h, 0.0, 1.0), h);
   for (std::size_t r = 0; r < n_; ++r)
-    y[r] = h00 * st.y0[r] + h10 * h * st.f0[r] + h01 * st.y1[r] + h11 * h * st.f1[r];
+    y[r] = w.a * st.y0[r] + w.b * st.f0[r] + w.c * st.y1[r] + w.d * st.f1[r];
   const auto diss = system_.quadrature_index(System::dissipated);
   for (std::size_t q = 0; q < st.fast.size(); ++q) {
     const std::size_t j = st.fast[q];
@@ -494,13 +492,11 @@ bool MultirateIntegrator::next_root(double t_from, double t_to, double& t_root) 
       const auto wx = w_of(system_, c);
       s = {y_[wx], y_[wx + 1]};
     } else {
-      const double h = st.H, u = std::clamp(tau / h, 0.0, 1.0);
-      const double h00 = (1 + 2 * u) * (1 - u) * (1 - u), h10 = u * (1 - u) * (1 - u);
-      const double h01 = u * u * (3 - 2 * u), h11 = u * u * (u - 1);
+      const auto w = hermite_weights(std::clamp(tau / st.H, 0.0, 1.0), st.H);
       const auto wx = static_cast<std::size_t>(w_of(system_, c));
       for (std::size_t k = 0; k < 2; ++k)
-        s[k] = h00 * st.y0[wx + k] + h10 * h * st.f0[wx + k] + h01 * st.y1[wx + k] +
-               h11 * h * st.f1[wx + k];
+        s[k] =
+            w.a * st.y0[wx + k] + w.b * st.f0[wx + k] + w.c * st.y1[wx + k] + w.d * st.f1[wx + k];
     }
     ++stats_.root_evaluations;
     return std::hypot(s[0], s[1]) - kappa * system_.contacts()[c].v_star;

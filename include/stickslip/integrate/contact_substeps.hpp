@@ -41,6 +41,16 @@ struct EsdirkTable {
 // dirk's table of that order (3 or 4: ESDIRK325L2SA, ESDIRK436L2SA).
 EsdirkTable esdirk_table(int order);
 
+// The cubic Hermite between (0, y0, y0') and (h, y1, y1') at fraction s of h:
+// y(s h) = a y0 + b y0' + c y1 + d y1' (the dense output of both levels).
+struct HermiteWeights {
+  double a, b, c, d;
+};
+inline HermiteWeights hermite_weights(double s, double h) {
+  return {(1 + 2 * s) * (1 - s) * (1 - s), h * s * (1 - s) * (1 - s), s * s * (3 - 2 * s),
+          h * s * s * (s - 1)};
+}
+
 // How site j's node is tied to the rest of the lattice, from System's Jacobian.
 struct NodeCoupling {
   double stiffness = 0.0;  // K [1/s²]
