@@ -1,16 +1,22 @@
 // method = "multirate" (integrate/multirate_integrator.hpp): its table, a fast
 // contact's sub-steps against a direct fine solution of the same node, and
 // whole runs against single-rate dirk at a far tighter tolerance.
+#include <sys/wait.h>
+
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
 
+#include "stickslip/analysis/compare.hpp"
 #include "stickslip/integrate/contact_substeps.hpp"
 #include "stickslip/integrate/integrator.hpp"
 #include "stickslip/integrate/tolerances.hpp"
+#include "stickslip/output/tables.hpp"
 #include "stickslip/run/run.hpp"
 #include "temp_dir.hpp"
 #include "test_cases.hpp"
@@ -188,4 +194,52 @@ TEST_CASE("multirate's steps.csv says how many contacts each step left to their 
   CHECK(fast_rows > 0);
   CHECK(fast_steps == summary.solver_stats.fast_contact_steps);
   CHECK(substeps <= summary.solver_stats.substeps);  // the stats count retried attempts' too
+}
+
+TEST_CASE("a multirate run stopped by SIGTERM and restarted agrees with an uninterrupted one",
+          "[slow][restart][multirate]") {
+  // The stepper starts from a state (its first a_c the law's, as dirk's
+  // first f is ARKStep's), so a checkpoint is all a restart needs; the step
+  // sequence changes, so the runs agree to the tolerance (as
+  // test_restart.cpp's for imex).
+  const test::TempDir tmp("stickslip_test_multirate_restart");
+  const std::filesystem::path& box = tmp.path;
+  std::ofstream(box / "two.toml") << R"([lattice]
+nx = 6
+ny = 6
+nz = 4
+[interface]
+contacts = [ { site = [1, 2], v_star = 4.75e-4 }, { site = [4, 2], v_star = 2.09e-3 } ]
+[run]
+t_end = 1.5e-3
+average_from = 5e-4
+checkpoint_every = 2e-4
+[solver]
+method = "multirate"
+rtol = 1e-7
+[output]
+interval = 1e-6
+traces = "all"
+steps = true
+)";
+  const std::string exe = STICKSLIP_EXE, dir = box.string();
+  auto shell = [](const std::string& command) {
+    const int status = std::system(command.c_str());
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  REQUIRE(shell("cd " + dir + " && " + exe + " run two.toml --out full --quiet >/dev/null") == 0);
+  REQUIRE(shell("cd " + dir + " && (" + exe +
+                " run two.toml --out part --quiet >/dev/null 2>&1 & pid=$!; "
+                "while [ ! -f part/checkpoint.bin ]; do sleep 0.02; done; "
+                "kill -TERM $pid; wait $pid)") == 143);
+  REQUIRE(shell("cd " + dir + " && " + exe + " run two.toml --restart part --quiet >/dev/null") ==
+          0);
+  CHECK(read_run_table(box / "part", "friction").t == read_run_table(box / "full", "friction").t);
+  CHECK(read_run_table(box / "part", "steps").columns ==
+        read_run_table(box / "full", "steps").columns);
+  const CompareResult r = compare_runs(box / "full", box / "part", 2e-2);
+  INFO(to_json(r).dump(1));
+  CHECK(r.pass());
+  CHECK(r.mu_rel_diff < 1e-5);
+  for (const auto& e : r.events) CHECK(e.max_dt < 1e-7);  // 1/30 of a slip's duration
 }
