@@ -2,7 +2,7 @@
 // method = "multirate": contacts on their own clocks.
 //
 // In a block slip every contact's start and stop used to collapse the one
-// global step (docs/PERFORMANCE.md, "What sets the step in a block slip"):
+// global step (docs/PERFORMANCE.md, "Multirate", "Why"):
 // a re-sticking contact's speed halves at every step for ~15 ns, and the
 // whole lattice was stepped at 1e-11 s through it. Here a coarse step of
 // dirk's ESDIRK advances the lattice and the slow contacts, with the exact
