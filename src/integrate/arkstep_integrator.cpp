@@ -5,6 +5,8 @@
 
 #include <stdexcept>
 
+#include "stickslip/integrate/dirk_tables.hpp"
+
 namespace stickslip {
 namespace {
 
@@ -15,25 +17,6 @@ ARKodeButcherTable classic_rk4() {
   const double b[4] = {1.0 / 6, 1.0 / 3, 1.0 / 3, 1.0 / 6};
   return ARKodeButcherTable_Create(4, 4, 0, const_cast<double*>(c), const_cast<double*>(a),
                                    const_cast<double*>(b), nullptr);
-}
-
-// The DIRK tables for each order: stiffly accurate ESDIRKs with stage order 2
-// where SUNDIALS 6.4 has them (the default SDIRK_5_3_4 has stage order 1, and
-// RK stages losing order on the stiff contacts is what holds imex's steps
-// down in the creep). Not ESDIRK547L2SA2, broken in 6.4.1.
-// Order 0 is the method's default (case/methods.hpp).
-ARKODE_DIRKTableID dirk_table(int order) {
-  switch (order > 0 ? order : method_info(Method::dirk).default_order) {
-    case 2:
-      return ARKODE_SDIRK_2_1_2;
-    case 3:
-      return ARKODE_ESDIRK325L2SA_5_2_3;
-    case 4:
-      return ARKODE_ESDIRK436L2SA_6_3_4;
-    case 5:
-      return ARKODE_ESDIRK547L2SA_7_4_5;
-  }
-  throw std::logic_error("dirk_table: an order the case reader should have refused");
 }
 
 }  // namespace

@@ -1,22 +1,17 @@
 #include "stickslip/integrate/contact_substeps.hpp"
 
-#include <arkode/arkode_butcher_dirk.h>
-
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 
+#include "stickslip/integrate/dirk_tables.hpp"
+
 namespace stickslip {
 
 EsdirkTable esdirk_table(int order) {
-  ARKODE_DIRKTableID id = ARKODE_ESDIRK436L2SA_6_3_4;
-  if (order == 3)
-    id = ARKODE_ESDIRK325L2SA_5_2_3;
-  else if (order != 4 && order != 0)
-    throw std::invalid_argument("esdirk_table: order 3 or 4, got " + std::to_string(order));
-  ARKodeButcherTable t = ARKodeButcherTable_LoadDIRK(id);
+  ARKodeButcherTable t = ARKodeButcherTable_LoadDIRK(dirk_table(order));
   if (t == nullptr || t->d == nullptr)
     throw std::logic_error("esdirk_table: SUNDIALS has no table");
   EsdirkTable out;

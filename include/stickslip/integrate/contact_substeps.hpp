@@ -38,7 +38,8 @@ struct EsdirkTable {
   std::vector<double> b, d, c;
   double at(int i, int j) const { return a[static_cast<std::size_t>(i * stages + j)]; }
 };
-// dirk's table of that order (3 or 4: ESDIRK325L2SA, ESDIRK436L2SA).
+// dirk's table of that order (integrate/dirk_tables.hpp); std::logic_error
+// for one that is not a stiffly accurate ESDIRK (order 2's SDIRK).
 EsdirkTable esdirk_table(int order);
 
 // The cubic Hermite between (0, y0, y0') and (h, y1, y1') at fraction s of h:
