@@ -5,7 +5,6 @@
 //   rhs_explicit_threads   the same with [solver] threads = 1, 2 (wall time)
 //   stage_solve    imex's exact per-contact implicit stage solve
 //   jacobian       refreshing the sparse Jacobian's values (contact blocks only)
-//   klu_setup / klu_solve   factorizing I − γJ with KLU and one solve (dirk, bdf: klu)
 //   lattice_factorize      LatticeSolver::set_gamma: M(γ) per Fourier mode and the
 //                          bottom layer's Green's function (dirk, bdf: once per γ)
 //   lattice_solve          one FFT solve with M(γ) (two per implicit stage)
@@ -24,8 +23,6 @@
 // in a state taken from a short integration from rest (contacts stuck and creeping).
 //     build/bench/stickslip_micro [--benchmark_filter=rhs]
 #include <benchmark/benchmark.h>
-#include <sunlinsol/sunlinsol_klu.h>
-#include <sunmatrix/sunmatrix_sparse.h>
 
 #include <chrono>
 #include <cmath>
@@ -157,50 +154,6 @@ void BM_machine_compute_threads(benchmark::State& state) {
     benchmark::DoNotOptimize(total);
   }
   state.SetItemsProcessed(state.iterations() * threads);
-}
-
-// KLU on I − γJ, as ARKStep (dirk) and CVODE (bdf) set it up: the numeric
-// factorization (klu_setup) and one solve (klu_solve).
-struct KluProblem {
-  SunContext ctx;
-  SparseJacobian jac;
-  MatrixPtr matrix;
-  NVectorPtr x, b;
-  LinearSolverPtr solver;
-  explicit KluProblem(Fixture& f) {
-    jac = f.system->jacobian_pattern(JacobianPart::full);
-    f.system->jacobian_values(f.y, jac);
-    matrix = make_sparse_matrix(jac, ctx);
-    x = make_serial_vector(f.y, ctx);
-    b = make_serial_vector(f.y, ctx);
-    solver.reset(SUNLinSol_KLU(x.get(), matrix.get(), ctx));
-    SUNLinSolInitialize(solver.get());
-  }
-  void form(double gamma) {
-    copy_into(jac, matrix.get());
-    SUNMatScaleAddI(-gamma, matrix.get());
-  }
-};
-
-void BM_klu_setup(benchmark::State& state) {
-  auto& f = fixture(static_cast<int>(state.range(0)));
-  KluProblem p(f);
-  for (auto _ : state) {
-    p.form(1e-9);
-    benchmark::DoNotOptimize(SUNLinSolSetup(p.solver.get(), p.matrix.get()));
-  }
-  report_nodes(state, *f.system);
-}
-
-void BM_klu_solve(benchmark::State& state) {
-  auto& f = fixture(static_cast<int>(state.range(0)));
-  KluProblem p(f);
-  p.form(1e-9);
-  SUNLinSolSetup(p.solver.get(), p.matrix.get());
-  for (auto _ : state)
-    benchmark::DoNotOptimize(
-        SUNLinSolSolve(p.solver.get(), p.matrix.get(), p.x.get(), p.b.get(), 0.0));
-  report_nodes(state, *f.system);
 }
 
 }  // namespace
@@ -340,7 +293,5 @@ BENCHMARK(BM_rhs_explicit_threads)
 BENCHMARK(BM_rhs_explicit)->Arg(15)->Arg(30)->Arg(60);
 BENCHMARK(BM_stage_solve)->Arg(15)->Arg(30)->Arg(60);
 BENCHMARK(BM_jacobian)->Arg(15)->Arg(30)->Arg(60);
-BENCHMARK(BM_klu_setup)->Arg(15)->Arg(30)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_klu_solve)->Arg(15)->Arg(30)->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

@@ -36,7 +36,6 @@ constexpr MethodInfo kMethods[] = {
 constexpr LinearSolverInfo kLinearSolvers[] = {
     {LinearSolver::fft, "fft", StageSolve::exact_lattice, 500,
      " solved exactly: lattice by FFT, contacts by Newton on their coupled speeds"},
-    {LinearSolver::klu, "klu", StageSolve::newton_klu, 10, "Newton with KLU on the sparse Jacobian"},
 };
 // clang-format on
 
@@ -81,10 +80,7 @@ std::string integrator_text(Method m, LinearSolver s) {
   const MethodInfo& method = method_info(m);
   std::string text = method.integrator;
   if (!method.whole_implicit) return text;
-  const LinearSolverInfo& solver = linear_solver_info(s);
-  if (solver.stages == StageSolve::exact_lattice)
-    return text + ", each " + method.implicit + solver.how;
-  return text + ", " + solver.how;
+  return text + ", each " + method.implicit + linear_solver_info(s).how;
 }
 
 }  // namespace stickslip

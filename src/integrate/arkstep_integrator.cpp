@@ -83,14 +83,6 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
       // of a stage's ~6).
       check(ARKStepSetDeduceImplicitRhs(arkode_mem_.get(), SUNTRUE), "ARKStepSetDeduceImplicitRhs");
       break;
-    case StageSolve::newton_klu:
-      // Newton with KLU on I − γ J; ARKStep reuses J and KLU its symbolic
-      // factorization (the pattern never changes) across steps.
-      make_klu_solver();
-      check(ARKStepSetLinearSolver(arkode_mem_.get(), linear_solver_.get(), matrix_.get()),
-            "ARKStepSetLinearSolver");
-      check(ARKStepSetJacFn(arkode_mem_.get(), jacobian_fn), "ARKStepSetJacFn");
-      break;
   }
 
   init_stepping(options_.watched_contacts.size());
@@ -164,10 +156,6 @@ SolverStats ArkStepIntegrator::stats() const {
                              &s.rhs_implicit, &s.linear_setups, &s.error_test_failures);
   ARKStepGetNumStepSolveFails(arkode_mem_.get(), &s.convergence_failures);
   if (!roots_.empty()) ARKStepGetNumGEvals(arkode_mem_.get(), &s.root_evaluations);
-  if (stages_ == StageSolve::newton_klu) {
-    ARKStepGetNumNonlinSolvIters(arkode_mem_.get(), &s.newton_iterations);
-    ARKStepGetNumJacEvals(arkode_mem_.get(), &s.jacobian_evaluations);
-  }
   add_stage_stats(s);
   return s;
 }

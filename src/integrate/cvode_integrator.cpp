@@ -34,12 +34,6 @@ CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solve
       check(CVodeSetNonlinearSolver(cvode_mem_.get(), stage_solver_.get()),
             "CVodeSetNonlinearSolver");
       break;
-    case StageSolve::newton_klu:
-      make_klu_solver();
-      check(CVodeSetLinearSolver(cvode_mem_.get(), linear_solver_.get(), matrix_.get()),
-            "CVodeSetLinearSolver");
-      check(CVodeSetJacFn(cvode_mem_.get(), jacobian_fn), "CVodeSetJacFn");
-      break;
     case StageSolve::none:
     case StageSolve::per_contact:
       throw std::logic_error("CVODE integrates only methods whose whole f is implicit");
@@ -111,11 +105,6 @@ SolverStats CvodeIntegrator::stats() const {
   CVodeGetNumSteps(cvode_mem_.get(), &s.steps);
   CVodeGetNumRhsEvals(cvode_mem_.get(), &s.rhs_implicit);
   CVodeGetNumNonlinSolvConvFails(cvode_mem_.get(), &s.convergence_failures);
-  if (stages_ == StageSolve::newton_klu) {
-    CVodeGetNumNonlinSolvIters(cvode_mem_.get(), &s.newton_iterations);
-    CVodeGetNumLinSolvSetups(cvode_mem_.get(), &s.linear_setups);
-    CVodeGetNumJacEvals(cvode_mem_.get(), &s.jacobian_evaluations);
-  }
   add_stage_stats(s);
   CVodeGetNumErrTestFails(cvode_mem_.get(), &s.error_test_failures);
   if (!roots_.empty()) CVodeGetNumGEvals(cvode_mem_.get(), &s.root_evaluations);

@@ -1,7 +1,5 @@
 #include "stickslip/integrate/stepping_integrator.hpp"
 
-#include <sunlinsol/sunlinsol_klu.h>
-
 #include <algorithm>
 #include <functional>
 #include <limits>
@@ -55,15 +53,6 @@ int SteppingIntegrator::root_fn(double, N_Vector y, double* g, void* self) {
   });
 }
 
-int SteppingIntegrator::jacobian_fn(double, N_Vector y, N_Vector, SUNMatrix J, void* self, N_Vector,
-                                    N_Vector, N_Vector) {
-  auto* me = static_cast<SteppingIntegrator*>(self);
-  return guarded(me->pending_, [&] {
-    me->system_.jacobian_values(as_span(y), me->jacobian_);
-    copy_into(me->jacobian_, J);
-  });
-}
-
 void SteppingIntegrator::make_per_contact_stages(StagePackage package) {
   const System& system = system_;
   stage_solver_ = make_exact_stage_solver(
@@ -78,13 +67,6 @@ void SteppingIntegrator::make_lattice_stages(StagePackage package) {
   stage_solver_ = make_exact_stage_solver(
       ctx_, package, std::bind_front(&LatticeStageSolver::solve, lattice_stages_.get()),
       stage_stats_, pending_);
-}
-
-void SteppingIntegrator::make_klu_solver() {
-  jacobian_ = system_.jacobian_pattern(JacobianPart::full);
-  matrix_ = make_sparse_matrix(jacobian_, ctx_);
-  linear_solver_.reset(SUNLinSol_KLU(y_.get(), matrix_.get(), ctx_));
-  check_created(linear_solver_.get(), "SUNLinSol_KLU");
 }
 
 double SteppingIntegrator::local_error_norm() {

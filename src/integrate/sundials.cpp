@@ -1,7 +1,5 @@
 #include "stickslip/integrate/sundials.hpp"
 
-#include <sunmatrix/sunmatrix_sparse.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <string>
@@ -42,23 +40,6 @@ NVectorPtr make_serial_vector(std::span<const double> values, SUNContext ctx) {
   NVectorPtr owned(v);
   use_compiled_kernels(v);  // clones inherit them
   std::copy(values.begin(), values.end(), N_VGetArrayPointer_Serial(v));
-  return owned;
-}
-
-static_assert(std::is_same_v<sunindextype, std::int64_t>,
-              "SparseJacobian's indices are copied into SUNDIALS' sparse matrix as they are");
-
-void copy_into(const SparseJacobian& jac, SUNMatrix m) {
-  std::copy(jac.row_start.begin(), jac.row_start.end(), SUNSparseMatrix_IndexPointers(m));
-  std::copy(jac.column.begin(), jac.column.end(), SUNSparseMatrix_IndexValues(m));
-  std::copy(jac.value.begin(), jac.value.end(), SUNSparseMatrix_Data(m));
-}
-
-MatrixPtr make_sparse_matrix(const SparseJacobian& jac, SUNContext ctx) {
-  SUNMatrix m = SUNSparseMatrix(jac.size, jac.size, jac.nonzeros(), CSR_MAT, ctx);
-  check_created(m, "SUNSparseMatrix");
-  MatrixPtr owned(m);
-  copy_into(jac, m);
   return owned;
 }
 

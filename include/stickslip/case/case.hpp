@@ -14,14 +14,15 @@ namespace stickslip {
 enum class GradDiv { paper, navier };       // G2 = (1+2ν) G1 (paper) or G1/(1−2ν) (Navier)
 enum class InitialState { rest, sliding };  // u = w = 0, or w^x = v everywhere
 // imex: ARKStep additive RK, contacts implicit (exact per-contact stage solve);
-// dirk: ARKStep fully implicit with KLU; bdf: CVODE with KLU; erk: ARKStep
-// explicit; rk4: the classic fourth-order Runge–Kutta at a fixed step.
+// dirk: ARKStep fully implicit; bdf: CVODE; erk: ARKStep explicit; rk4: the
+// classic fourth-order Runge–Kutta at a fixed step; multirate: ESDIRK with
+// fast contacts on sub-steps of their own (case/methods.cpp has every row).
 enum class Method { imex, dirk, bdf, erk, rk4, multirate, automatic };
-// How dirk and bdf solve their stage equations: "fft" solves each exactly (the
-// lattice by FFT in x, y and banded solves along z, the contacts by Newton on
-// their coupled speeds); "klu" runs SUNDIALS' Newton with KLU on the sparse
-// Jacobian (small lattices, and as a check); "auto" is fft.
-enum class LinearSolver { automatic, fft, klu };
+// How dirk and bdf solve their stage equations: "fft" (= "auto") solves each
+// exactly (the lattice by FFT in x, y and banded solves along z, the contacts
+// by Newton on their coupled speeds). "klu" is refused by the reader, which
+// says why (a sparse LU of the 3D lattice, docs/PERFORMANCE.md).
+enum class LinearSolver { automatic, fft };
 enum class ContactSelection { all, none, list };  // which contacts an output covers
 
 struct LatticeParams {

@@ -19,8 +19,7 @@ enum class Package { arkstep, cvode, own };
 enum class StageSolve {
   none,           // explicit (erk, rk4)
   per_contact,    // f_I = the contact forces, solved contact by contact (imex)
-  exact_lattice,  // f_I = all of f, solved exactly by LatticeStageSolver (dirk, bdf: fft)
-  newton_klu,     // f_I = all of f, SUNDIALS' Newton with KLU (dirk, bdf: klu)
+  exact_lattice,  // f_I = all of f, solved exactly by LatticeStageSolver (dirk, bdf, multirate)
 };
 
 struct MethodInfo {
@@ -47,8 +46,7 @@ struct LinearSolverInfo {
   // Steps between the run's polls (IntegratorOptions::poll): small enough
   // that a stop request is answered within seconds even on a 60×60×10
   // lattice, large enough that returning to the caller costs nothing
-  // measurable. With KLU every 10: one step may factorize the whole lattice
-  // (9.8 s on 15×15×10), and 500 of them left a SIGTERM unanswered for minutes.
+  // measurable.
   long poll_steps;
   const char* how;  // ", each <implicit> solved ..." in summary.json's "integrator"
 };

@@ -64,15 +64,12 @@ class SteppingIntegrator : public Integrator {
   static int explicit_rhs(double t, N_Vector y, N_Vector ydot, void* self);  // imex's lattice
   static int implicit_rhs(double t, N_Vector y, N_Vector ydot, void* self);  // imex's contacts
   static int root_fn(double t, N_Vector y, double* g, void* self);
-  static int jacobian_fn(double t, N_Vector y, N_Vector fy, SUNMatrix J, void* self, N_Vector,
-                         N_Vector, N_Vector);
   void* user_data() { return static_cast<SteppingIntegrator*>(this); }
 
   // The solvers of the implicit part (StageSolve): made here, attached to the
   // package by the adapter.
   void make_per_contact_stages(StagePackage package);
   void make_lattice_stages(StagePackage package);
-  void make_klu_solver();  // jacobian_, matrix_, linear_solver_
   // Weighted RMS norm of the last step's local error estimate; NaN if none.
   double local_error_norm();
   [[noreturn]] void throw_failure(int flag, double t);
@@ -95,9 +92,6 @@ class SteppingIntegrator : public Integrator {
   StageStats stage_stats_;
   std::unique_ptr<LatticeStageSolver> lattice_stages_;
   NonlinearSolverPtr stage_solver_;
-  MatrixPtr matrix_;
-  LinearSolverPtr linear_solver_;
-  SparseJacobian jacobian_;
   std::exception_ptr pending_;
 
  private:

@@ -4,8 +4,6 @@
 
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_context.h>
-#include <sundials/sundials_linearsolver.h>
-#include <sundials/sundials_matrix.h>
 
 #include <exception>
 #include <memory>
@@ -41,12 +39,6 @@ class SunContext {
 struct NVectorDeleter {
   void operator()(N_Vector v) const { N_VDestroy(v); }
 };
-struct MatrixDeleter {
-  void operator()(SUNMatrix m) const { SUNMatDestroy(m); }
-};
-struct LinearSolverDeleter {
-  void operator()(SUNLinearSolver s) const { SUNLinSolFree(s); }
-};
 // The integrators' memory blocks (ARKStepFree, CVodeFree; defined with the adapters).
 struct ArkodeMemDeleter {
   void operator()(void* mem) const;
@@ -57,19 +49,8 @@ struct CvodeMemDeleter {
 using NVectorPtr = std::unique_ptr<std::remove_pointer_t<N_Vector>, NVectorDeleter>;
 using ArkodeMemPtr = std::unique_ptr<void, ArkodeMemDeleter>;
 using CvodeMemPtr = std::unique_ptr<void, CvodeMemDeleter>;
-using MatrixPtr = std::unique_ptr<std::remove_pointer_t<SUNMatrix>, MatrixDeleter>;
-using LinearSolverPtr =
-    std::unique_ptr<std::remove_pointer_t<SUNLinearSolver>, LinearSolverDeleter>;
 
 NVectorPtr make_serial_vector(std::span<const double> values, SUNContext ctx);
-
-// Copies a SparseJacobian (pattern and values) into a CSR SUNSparseMatrix.
-// The pattern goes too: ARKODE and CVODE zero the whole matrix, index arrays
-// included, before asking for a new Jacobian.
-struct SparseJacobian;
-void copy_into(const SparseJacobian& jac, SUNMatrix m);
-// A CSR SUNSparseMatrix shaped for `jac`.
-MatrixPtr make_sparse_matrix(const SparseJacobian& jac, SUNContext ctx);
 
 // Error handler for ARKODE and CVODE: prints their messages like the default
 // handler, except "too much work" (flag −1 in both), which the adapters use
