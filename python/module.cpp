@@ -21,6 +21,7 @@
 #include "stickslip/case/case.hpp"
 #include "stickslip/case/reader.hpp"
 #include "stickslip/integrate/sundials.hpp"
+#include "stickslip/model/contacts.hpp"
 #include "stickslip/output/recorder.hpp"
 #include "stickslip/output/summary.hpp"
 #include "stickslip/output/tables.hpp"
@@ -170,6 +171,9 @@ PYBIND11_MODULE(_core, m) {
   py::class_<Case>(m, "Case", "a validated case (the package's Case wraps it)")
       .def("to_json", [](const Case& c) { return to_json(c).dump(); })
       .def_property_readonly("source", [](const Case& c) { return c.source; })
+      .def_property_readonly(
+          "coverage", [](const Case& c) { return realized_coverage(c.lattice, c.interface); },
+          "θ as placed (an explicit contacts list's, not interface.coverage)")
       .def("output_dir", [](const Case& c) { return output_dir_for(c, {}); });
 
   m.def(

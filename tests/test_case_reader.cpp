@@ -245,6 +245,34 @@ TEST_CASE("coverage must give at least one contact", "[case]") {
             .interface.contacts.size() == 1);
 }
 
+TEST_CASE("coverage or seed beside an explicit contacts list is refused, naming both keys",
+          "[case]") {
+  // They only feed the random placement: accepted, they would change nothing.
+  const std::string pair =
+      "[interface]\ncontacts = [{site = [1, 1], v_star = 1e-4}, {site = [5, 5], v_star = 1e-3}]\n";
+  for (const char* key : {"coverage = 0.4", "seed = 3"}) {
+    INFO(key);
+    REQUIRE_THROWS_WITH(parse(pair + key + "\n"),
+                        Catch::StartsWith("cases/t.toml:3: interface.") &&
+                            Catch::Contains("interface.coverage and interface.seed, or "
+                                            "interface.contacts, not both"));
+  }
+  REQUIRE_THROWS_WITH(parse(pair, {"interface.seed=7"}),
+                      Catch::StartsWith("--set interface.seed: places contacts at random"));
+  // What the case file writes back for such a case reads back (no coverage, no seed).
+  const Case c = parse(pair);
+  CHECK(to_json(parse(to_toml(c))) == to_json(c));
+}
+
+TEST_CASE("linear_solver = \"klu\" is refused with the reason", "[case]") {
+  REQUIRE_THROWS_WITH(parse("[solver]\nmethod = \"dirk\"\nlinear_solver = \"klu\"\n"),
+                      Catch::StartsWith("cases/t.toml:3: solver.linear_solver: \"klu\" is no "
+                                        "longer offered") &&
+                          Contains("use \"fft\""));
+  CHECK(parse("[solver]\nmethod = \"bdf\"\nlinear_solver = \"fft\"\n").solver.linear_solver ==
+        LinearSolver::fft);
+}
+
 TEST_CASE("explicit contacts are read in order, in either TOML form", "[case]") {
   const Case inline_form = parse(R"([interface]
 contacts = [

@@ -242,6 +242,10 @@ TEST_CASE("bad sweep files are refused: exit 2, file, line and key, nothing run"
           "[sweep][bad_input]") {
   Sandbox box;
   box.write("base.toml", kBase);
+  box.write("pair.toml",
+            std::string(kBase) +
+                "[interface]\ncontacts = [ { site = [1, 2], v_star = 4.75e-4 }, { site "
+                "= [4, 2], v_star = 2.09e-3 } ]\n");
   struct Row {
     const char* name;
     std::string text;
@@ -289,6 +293,12 @@ TEST_CASE("bad sweep files are refused: exit 2, file, line and key, nothing run"
       {"one key together",
        "[sweep]\ncase = \"base.toml\"\n[[vary.together]]\nlattice.nx = [6, 8]\n",
        {"s.toml:3: vary.together: needs at least two keys that change in step"}},
+      {"seeds over an explicit contacts list (identical runs that would look like an ensemble)",
+       "[sweep]\ncase = \"pair.toml\"\n[vary]\ninterface.seed = [1, 2, 3]\n",
+       {"s.toml:4: vary.interface.seed", "interface.contacts lists them"}},
+      {"coverages over an explicit contacts list",
+       "[sweep]\ncase = \"pair.toml\"\n[vary]\ninterface.coverage = [0.1, 0.2]\n",
+       {"s.toml:4: vary.interface.coverage", "interface.contacts lists them"}},
       {"a linked combination the case refuses",
        "[sweep]\ncase = \"base.toml\"\n[[vary.together]]\nlattice.nx = [6, 8]\ninterface.patch = "
        "[1, 7]\n",

@@ -119,6 +119,12 @@ class Case:
         """The case file it was read from (Path("<dict>") for a dict)."""
         return self._source
 
+    @property
+    def coverage(self):
+        """θ as placed: an explicit contacts list's (contacts/(nx*ny)), else
+        interface.coverage rounded to a whole number of contacts."""
+        return self._case.coverage
+
     def to_dict(self):
         """Every section and key, defaults filled in (summary.json's "case" without "source")."""
         resolved = json.loads(self._case.to_json())
@@ -138,9 +144,11 @@ class Case:
     def __repr__(self):
         d = self.to_dict()
         lattice, solver = d["lattice"], d["solver"]
+        listed = d["interface"].get("contacts") or []
+        contacts = f"{len(listed)} contacts listed, " if listed else ""
         return (
             f"Case({str(self._source)!r}: {lattice['nx']}x{lattice['ny']}x{lattice['nz']}, "
-            f"coverage {d['interface']['coverage']}, v {d['drive']['velocity']} m/s, "
+            f"{contacts}coverage {self.coverage:.4g}, v {d['drive']['velocity']} m/s, "
             f"t_end {d['run']['t_end']} s, {solver['method']} rtol {solver['rtol']})"
         )
 

@@ -125,3 +125,15 @@ def test_a_case_pickles_as_the_same_case(pair_file):
                  stickslip.Case.from_dict({"lattice.nx": 6})):
         back = pickle.loads(pickle.dumps(case))
         assert back == case and back.source == case.source and back.to_toml() == case.to_toml()
+
+
+def test_seed_or_coverage_over_explicit_contacts_is_refused_and_repr_shows_the_placed_coverage():
+    pair = stickslip.Case.from_toml(FIG10B)  # two contacts on 15x15
+    for change in ({"interface.seed": 7}, {"interface.coverage": 0.4}):
+        with pytest.raises(stickslip.CaseError, match="interface.contacts lists them"):
+            pair.replace(change)
+    assert pair.coverage == 2 / 225
+    assert "2 contacts listed, coverage 0.008889" in repr(pair)
+    random = stickslip.Case.from_dict({"lattice": {"nx": 6, "ny": 6}, "interface.coverage": 0.3})
+    assert random.coverage == 11 / 36  # floor(0.3 * 36 + 0.5) contacts
+    assert "coverage 0.3056" in repr(random)

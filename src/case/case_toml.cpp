@@ -58,6 +58,13 @@ bool unset(const std::string& section, const std::string& key, const json& v) {
          (section == "interface" && key == "contacts" && v.empty());
 }
 
+// Keys the case may not give beside others (the reader refuses coverage and
+// seed beside an explicit contacts list): left out, so the text reads back.
+bool excluded(const Case& c, const std::string& section, const std::string& key) {
+  return section == "interface" && (key == "coverage" || key == "seed") &&
+         !c.interface.contacts.empty();
+}
+
 }  // namespace
 
 std::string to_toml(const Case& c) {
@@ -68,7 +75,7 @@ std::string to_toml(const Case& c) {
     if (!keys.is_object()) continue;  // "source"
     text += "\n[" + section + "]\n";
     for (const auto& [key, v] : keys.items()) {
-      if (unset(section, key, v)) continue;
+      if (unset(section, key, v) || excluded(c, section, key)) continue;
       if (section == "output" && key == "dir") {
         // Absolute: a relative dir would be read against the new file's directory.
         text += "dir = " + value_text(std::filesystem::absolute(c.output.dir).string()) + "\n";

@@ -180,6 +180,12 @@ void read_method(Reader& r, const toml::node& n, const std::string& key, Case& c
 }
 
 void read_linear_solver(Reader& r, const toml::node& n, const std::string& key, Case& c) {
+  // KLU was offered and never finished a case from rest: docs/PERFORMANCE.md.
+  if (const auto* s = n.as_string(); s && s->get() == "klu")
+    r.fail(n, key,
+           "\"klu\" is no longer offered: SUNDIALS' Newton with a sparse LU of the 3D lattice "
+           "stalled from rest on every case tried (one factorization takes 9.8 s on 15x15x10); "
+           "use \"fft\" (the default), which solves each stage exactly");
   read_row(r, n, key, linear_solvers(), &LinearSolverInfo::solver, c.solver.linear_solver);
 }
 
@@ -467,6 +473,18 @@ void check_consistency(const Reader& r, const Case& c) {
                     {"lattice.ny", why}});
     }
   }
+
+  // coverage and seed only feed the random placement: beside an explicit list
+  // they would change nothing, and a sweep over them would look like an
+  // ensemble of identical runs.
+  if (!c.interface.contacts.empty())
+    for (const std::string_view key : {"interface.coverage", "interface.seed"})
+      if (auto it = r.given.find(key); it != r.given.end())
+        r.fail(*it->second, key,
+               "places contacts at random, but interface.contacts lists them (" +
+                   std::to_string(c.interface.contacts.size()) +
+                   " contacts, so coverage = contacts/(nx*ny)): give interface.coverage and "
+                   "interface.seed, or interface.contacts, not both");
 
   const double t_end = c.run.t_end, t_avg = c.run.average_from;
   if (!(t_avg < t_end))

@@ -32,6 +32,13 @@ int contact_count(double coverage, int nx, int ny, int patch) {
   return static_cast<int>(std::floor(coverage * nx * ny / (double(patch) * patch) + 0.5));
 }
 
+double realized_coverage(const LatticeParams& lattice, const InterfaceParams& iface) {
+  const int nx = lattice.nx, ny = lattice.ny, patch = iface.patch;
+  const double count = iface.contacts.empty() ? contact_count(iface.coverage, nx, ny, patch)
+                                              : static_cast<double>(iface.contacts.size());
+  return count * patch * patch / (static_cast<double>(nx) * ny);
+}
+
 std::vector<std::array<int, 2>> patch_sites(int ix, int iy, int patch, int nx, int ny) {
   std::vector<std::array<int, 2>> sites;
   sites.reserve(static_cast<std::size_t>(patch) * patch);

@@ -23,6 +23,10 @@ struct Contact {
 // N_c = round-half-up(θ Nx Ny / R²).
 int contact_count(double coverage, int nx, int ny, int patch = 1);
 
+// θ as placed: the contacts' bottom nodes over the interface's Nx Ny (the
+// explicit list's contacts, or N_c patches, each of R² nodes).
+double realized_coverage(const LatticeParams& lattice, const InterfaceParams& iface);
+
 // The bottom sites (ix, iy) of the R×R patch with corner (ix, iy), row by row.
 std::vector<std::array<int, 2>> patch_sites(int ix, int iy, int patch, int nx, int ny);
 
