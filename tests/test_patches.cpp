@@ -36,7 +36,7 @@ TEST_CASE("a patch wraps around the interface, and overlaps are found across the
   CHECK(overlap->second == 2);
 }
 
-TEST_CASE("random patches: N_c of them, disjoint, reproducible; too many is an error",
+TEST_CASE("random patches: N_c of them, disjoint, reproducible, too many is an error",
           "[patches]") {
   LatticeParams lattice{30, 30, 10, 1e-4};
   InterfaceParams iface;
@@ -60,7 +60,7 @@ TEST_CASE("random patches: N_c of them, disjoint, reproducible; too many is an e
   REQUIRE_THROWS_AS(place_contacts(lattice, iface), PlacementError);
 }
 
-TEST_CASE("every site of a patch carries the contact law; the patch moves at their mean",
+TEST_CASE("every site of a patch carries the contact law, the patch moves at their mean",
           "[patches]") {
   Case c;
   c.lattice = {6, 6, 3, 1e-4};

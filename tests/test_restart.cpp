@@ -275,7 +275,7 @@ void interrupt(const Case& c, const RunOptions& options) {
 
 }  // namespace
 
-TEST_CASE("a restart continues a run whose summary.json is cut short; a whole one is refused",
+TEST_CASE("a restart continues a run whose summary.json is cut short, a whole one is refused",
           "[restart]") {
   const test::TempDir tmp("stickslip_test_restart_cut_summary");
   const Case c = parse_case(kTiny, tmp.path / "tiny.toml");

@@ -364,7 +364,7 @@ TEST_CASE("[set] and [vary] values are judged on whole points, not on the base c
   CHECK_THAT(lost.err, Catch::Contains("--set run.t_end: later.toml varies it"));
 }
 
-TEST_CASE("keys in [[vary.together]] change in step; the groups combine", "[sweep]") {
+TEST_CASE("keys in [[vary.together]] change in step, the groups combine", "[sweep]") {
   Sandbox box;
   box.write("base.toml", kBase);
   const auto file = box.write("s.toml", R"([sweep]
@@ -564,7 +564,7 @@ TEST_CASE("a sweep split into job-array shards makes the same tables as one run"
   CHECK_FALSE(fs::exists(box.work / "stepped"));
 }
 
-TEST_CASE("points side by side run on one thread each; one at a time, on the case's threads",
+TEST_CASE("points side by side run on one thread each, one at a time, on the case's threads",
           "[sweep][threads]") {
   Sandbox box;
   box.write("base.toml", kBase);

@@ -192,7 +192,7 @@ TEST_CASE("a run's table that cannot be read back is an output error naming the 
   CHECK_THROWS_AS(read_run_events(tmp.path), OutputError);
 }
 
-TEST_CASE("a row a running run is still writing is left out; a malformed whole row is not",
+TEST_CASE("a row a running run is still writing is left out, a malformed whole row is not",
           "[tables]") {
   const test::TempDir tmp("stickslip_test_tables_running");
   // The writer ends every row with a newline; the last line has none while it is written.
