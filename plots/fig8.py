@@ -54,7 +54,10 @@ def main() -> int:
                   f"peak-to-peak/mean={rel:.4g} (t >= {t_avg:g} s)")
         ax.axvline(t_avg * 1e3, color="0.6", lw=0.6, ls=":")
         ax.set_ylabel("$F_f/\\theta$ (N)")
-        ax.set_title(f"θ = {theta:.3g}, μ = {summary['mu']:.4g}", fontsize=9, loc="left")
+        regime = summary.get("regime") or {}
+        flag = "" if regime.get("mu_trusted", True) else f" — not friction: {regime['kind']} window, run longer"
+        ax.set_title(f"θ = {theta:.3g}, μ = {summary['mu']:.4g}{flag}", fontsize=9, loc="left",
+                     color="red" if flag else "black")
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("time (ms)")
     fig.suptitle("Fig. 8: friction force per coverage, v = 1e-3 m/s", fontsize=10)

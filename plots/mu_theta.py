@@ -25,9 +25,11 @@ def read_summary(sweep_dir: Path):
 
 
 def curves(rows, label_key):
-    """{label value: [(theta, mean, sd, count, whole_cycles)]}, sorted by theta; points without
-    a result skipped. μ over whole cycles of F_f where the table has it (summary.json's
-    mu_whole_cycles: no bias from a fraction of a block-scale cycle), else over the window."""
+    """{label value: [(theta, mean, sd, count, whole_cycles, untrusted)]}, sorted by theta;
+    points without a result skipped. μ over whole cycles of F_f where the table has it
+    (summary.json's mu_whole_cycles: no bias from a fraction of a block-scale cycle), else over
+    the window. `untrusted`: how many of the point's runs had a window with neither whole
+    cycles nor steady sliding (the loading from rest): their μ is no friction coefficient."""
     out = {}
     for r in rows:
         if not r["mu_mean"]:
@@ -37,7 +39,8 @@ def curves(rows, label_key):
         prefix = "mu_whole_cycles" if cycles else "mu"
         sd = float(r[prefix + "_std"]) if r[prefix + "_std"] else 0.0
         out.setdefault(key, []).append(
-            (float(r["theta_mean"]), float(r[prefix + "_mean"]), sd, int(r["count"]), cycles))
+            (float(r["theta_mean"]), float(r[prefix + "_mean"]), sd, int(r["count"]), cycles,
+             int(r.get("untrusted") or 0)))
     for v in out.values():
         v.sort()
     return out
@@ -66,9 +69,15 @@ def plot(sweep_dirs, label_key: str, label_name: str, stem: str, title: str) -> 
         label = f"{label_name} = {value}" if value else ""
         label = (label + " " if label else "") + f"({seed_count(pts)})"
         ax.errorbar(th, mu, yerr=sd, marker="o", ms=4, capsize=3, lw=1, color=f"C{i}", label=label)
-        for t, m, s, n, cycles in pts:
+        for t, m, s, n, cycles, untrusted in pts:
             what = "mu_whole_cycles" if cycles else "mu"
-            print(f"{label_name}={value or '-'} theta={t:.4g} {what}_mean={m:.6g} {what}_std={s:.3g} n={n}")
+            flag = f" UNTRUSTED in {untrusted} of {n} runs (loading or unsettled window)" if untrusted else ""
+            print(f"{label_name}={value or '-'} theta={t:.4g} {what}_mean={m:.6g} {what}_std={s:.3g} n={n}{flag}")
+    bad = [(p[0], p[1]) for pts in data.values() for p in pts if p[5]]
+    if bad:  # a μ from the loading ramp falls as 1/θ: the paper's trend for the wrong reason
+        ax.scatter([b[0] for b in bad], [b[1] for b in bad], s=160, facecolors="none", edgecolors="red",
+                   lw=1.5, zorder=5, label="not friction: window without whole cycles\nor steady sliding "
+                   "(loading); run longer")
     whole = all(p[4] for pts in data.values() for p in pts)
     spread = " (mean ± sd over seeds)" if any(p[3] > 1 for pts in data.values() for p in pts) else ""
     ax.set_xlabel("coverage θ")

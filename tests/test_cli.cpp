@@ -156,7 +156,7 @@ TEST_CASE("an unknown command-line option is reported in one line", "[cli]") {
   CHECK(lines(r.err) == 1);
 }
 
-TEST_CASE("a tiny case runs and writes its outputs; a rerun needs --overwrite", "[cli]") {
+TEST_CASE("a tiny case runs and writes its outputs, a rerun needs --overwrite", "[cli]") {
   Sandbox box;
   const fs::path file = box.write("tiny.toml", kTiny);
   const fs::path out = box.work / "results";
@@ -166,12 +166,17 @@ TEST_CASE("a tiny case runs and writes its outputs; a rerun needs --overwrite", 
   INFO("stdout: " << r.out << "stderr: " << r.err);
   REQUIRE(r.code == 0);
   CHECK_THAT(r.out, StartsWith("mu = "));
-  CHECK(r.err.empty());
+  // 20 µs from rest is the elastic loading, no slip: μ is flagged as no friction coefficient.
+  CHECK(lines(r.err) == 1);
+  CHECK_THAT(r.err, StartsWith("warning: mu is not a friction coefficient: in the averaging "
+                               "window [1e-05, 2e-05] s F_f rises as a ramp"));
 
   REQUIRE(fs::exists(out / "summary.json"));
   const auto summary = nlohmann::json::parse(slurp(out / "summary.json"));
   CHECK(summary.at("mu").is_number());
   CHECK(summary.at("contacts") == 1);
+  CHECK(summary.at("regime").at("kind") == "loading");
+  CHECK(summary.at("regime").at("mu_trusted") == false);
 
   const std::string friction = slurp(out / "friction.csv");
   CHECK_THAT(friction, StartsWith("t,F_f,mu_inst\n"));

@@ -8,6 +8,10 @@
 #include <vector>
 
 #include "stickslip/analysis/cycles.hpp"
+#include "stickslip/case/case.hpp"
+#include "stickslip/output/summary.hpp"
+#include "stickslip/run/run.hpp"
+#include "temp_dir.hpp"
 
 using namespace stickslip;
 
@@ -115,4 +119,75 @@ TEST_CASE("whole_cycle_mean refuses too few samples and mismatched sizes", "[ana
   CHECK_THROWS_AS(whole_cycle_mean(t, f, 0.0), std::invalid_argument);
   const std::vector<double> g = {1, 2, 3};
   CHECK_THROWS_AS(whole_cycle_mean(t, g, 1.5), std::invalid_argument);
+}
+
+namespace {
+
+WindowRegime regime_of(const Signal& s, double t_from) {
+  return classify_window(s.t, s.f, t_from, whole_cycle_mean(s.t, s.f, t_from),
+                         relative_spread(s.t, s.f, t_from));
+}
+
+}  // namespace
+
+TEST_CASE("the window's regime: whole cycles, steady, a loading ramp, or a cycle cut short",
+          "[analysis][cycles]") {
+  // Five whole sawtooth cycles: stick-slip, μ trusted, and no drift over whole cycles.
+  const WindowRegime cycles = regime_of(sawtooth(1e-3, 1.0, 2.0, 1e-6, 6e-3), 1e-3);
+  CHECK(cycles.kind == Regime::stick_slip);
+  CHECK(cycles.mu_trusted());
+
+  // A ramp 1 → 3 over the window: its line explains all of it, drift (3 − 1)/2 exactly.
+  Signal ramp;
+  for (int k = 0; k <= 1000; ++k)
+    ramp.t.push_back(k * 1e-6), ramp.f.push_back(1.0 + 2e3 * k * 1e-6);
+  const WindowRegime loading = regime_of(ramp, 0.0);
+  CHECK(loading.kind == Regime::loading);
+  CHECK_FALSE(loading.mu_trusted());
+  CHECK(loading.drift == Approx(1.0).epsilon(1e-12));
+  CHECK(loading.trend_share == Approx(1.0).epsilon(1e-12));
+  // With ringing on it slower than the ramp's rise (what a block loaded from
+  // rest shows): F_f never falls, so no downward crossing: still a ramp.
+  Signal ringing = ramp;
+  for (std::size_t k = 0; k < ringing.t.size(); ++k)
+    ringing.f[k] += 0.02 * std::sin(2 * M_PI * ringing.t[k] / 1e-4);
+  CHECK(whole_cycle_mean(ringing.t, ringing.f, 0.0).crossings == 0);
+  CHECK(regime_of(ringing, 0.0).kind == Regime::loading);
+
+  // Constant to 1e-4 relative: steady sliding, trusted.
+  Signal steady;
+  for (int k = 0; k <= 1000; ++k)
+    steady.t.push_back(k * 1e-6), steady.f.push_back(5.0 * (1 + 1e-4 * std::sin(k * 0.37)));
+  CHECK(regime_of(steady, 0.0).kind == Regime::steady_sliding);
+  CHECK(regime_of(steady, 0.0).mu_trusted());
+
+  // One drop in the middle of the window, no whole cycle: neither ramp nor steady.
+  const WindowRegime cut = regime_of(sawtooth(1e-3, 1.0, 2.0, 1e-6, 1e-3, 5e-4), 0.0);
+  CHECK(cut.kind == Regime::unsettled);
+  CHECK_FALSE(cut.mu_trusted());
+  CHECK(std::string(to_string(Regime::steady_sliding)) == "steady sliding");
+}
+
+TEST_CASE("a run from rest: a window on its loading is flagged, a later one of slips is not",
+          "[slow][analysis][cycles]") {
+  // 18 random contacts on 6x6x4 at v = 1e-3: the block loads for ~4 ms before
+  // the first slip (F_f rising 67 % across [1, 2] ms), then stick-slips.
+  test::TempDir dir("stickslip_test_regime");
+  Case c;
+  c.lattice = {6, 6, 4, 1e-4};
+  c.interface.coverage = 0.5;
+  c.output.events = ContactSelection::none;
+  c.run.t_end = 2e-3;
+  c.run.average_from = 1e-3;
+  const Summary early = run_case(c, {dir.path / "early", false, true});
+  REQUIRE(early.regime);
+  CHECK(early.regime->kind == Regime::loading);
+  CHECK(early.regime->drift > 0.5);
+  CHECK_THAT(mu_warning(early), Catch::Contains("rises as a ramp"));
+  c.run.t_end = 8e-3;
+  c.run.average_from = 4e-3;
+  const Summary late = run_case(c, {dir.path / "late", false, true});
+  REQUIRE(late.regime);
+  CHECK(late.regime->kind == Regime::stick_slip);
+  CHECK(mu_warning(late).empty());
 }

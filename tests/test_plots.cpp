@@ -86,19 +86,21 @@ TEST_CASE("fig7.py, fig9.py and epsilon.py plot the sweep's mean mu per coverage
   REQUIRE(box.run({"sweep", "e.toml", "--jobs", "2"}).code == 0);
 
   // The means the script prints are sweep_summary.csv's, for all four groups.
-  std::map<std::pair<std::string, std::string>, double> expected;  // (v, coverage) -> μ mean
+  std::map<std::pair<std::string, std::string>, double> expected;        // (v, coverage) -> μ mean
+  std::map<std::pair<std::string, std::string>, std::string> untrusted;  // -> runs flagged
   {
     std::istringstream in(slurp(box.work / "out" / "s" / "sweep_summary.csv"));
     std::string line;
     std::getline(in, line);
     REQUIRE(line ==
             "drive.velocity,interface.coverage,theta_mean,mu_mean,mu_std,mu_sem,count,"
-            "mu_whole_cycles_mean,mu_whole_cycles_std,mu_whole_cycles_sem");
+            "mu_whole_cycles_mean,mu_whole_cycles_std,mu_whole_cycles_sem,untrusted");
     while (std::getline(in, line)) {
       std::vector<std::string> f;
       std::istringstream cells(line);
       for (std::string c; std::getline(cells, c, ',');) f.push_back(c);
       expected[{f[0], f[2]}] = std::stod(f[7]);  // the plots show μ over whole cycles
+      untrusted[{f[0], f[2]}] = f[10];
     }
   }
   REQUIRE(expected.size() == 4);
@@ -110,7 +112,7 @@ TEST_CASE("fig7.py, fig9.py and epsilon.py plot the sweep's mean mu per coverage
     std::istringstream lines(r.out);
     int matched = 0;
     static const std::regex printed(
-        R"(v \(m/s\)=(\S+) theta=(\S+) mu_whole_cycles_mean=(\S+) mu_whole_cycles_std=(\S+) n=(\d+))");
+        R"(v \(m/s\)=(\S+) theta=(\S+) mu_whole_cycles_mean=(\S+) mu_whole_cycles_std=(\S+) n=(\d+)( UNTRUSTED in (\d+) of \d+ runs.*)?)");
     for (std::string line; std::getline(lines, line);) {
       std::smatch m;
       if (!std::regex_match(line, m, printed)) continue;
@@ -121,6 +123,8 @@ TEST_CASE("fig7.py, fig9.py and epsilon.py plot the sweep's mean mu per coverage
       REQUIRE(it != expected.end());
       CHECK(std::stod(m[3].str()) == Approx(it->second).epsilon(1e-5));
       CHECK(m[5].str() == "2");
+      // A group with a run whose μ is no friction coefficient is marked, with its count.
+      CHECK((m[7].matched ? m[7].str() : "0") == untrusted.at(it->first));
       ++matched;
     }
     CHECK(matched == 4);

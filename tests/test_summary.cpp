@@ -22,6 +22,7 @@ Summary full_summary() {
   s.mu = 5.25;
   s.mu_whole_cycles = WholeCycleMu{5.5, 1.2e-3, 2.9e-3, 7};
   s.F_f_spread = 0.125;
+  s.regime = WindowRegime{Regime::stick_slip, 0.015, 0.02};
   s.theta = 0.0089;
   s.F_N = 2e-4;
   s.contacts = 2;
@@ -64,7 +65,7 @@ TEST_CASE("a summary reads back field for field through its JSON", "[summary]") 
   const nlohmann::json j = to_json(a);
   CHECK(j["events"]["per_contact"][1]["mean_recurrence"].is_null());  // NaN is null in JSON
   CHECK(j["synchronization"]["xcorr_peak"].is_null());
-  const Summary b = summary_from_json(nlohmann::json::parse(j.dump()));
+  Summary b = summary_from_json(nlohmann::json::parse(j.dump()));
   CHECK(b.mu == a.mu);
   REQUIRE(b.mu_whole_cycles);
   CHECK(b.mu_whole_cycles->mu == 5.5);
@@ -72,7 +73,16 @@ TEST_CASE("a summary reads back field for field through its JSON", "[summary]") 
   CHECK(b.mu_whole_cycles->to == 2.9e-3);
   CHECK(b.mu_whole_cycles->crossings == 7);
   CHECK(b.F_f_spread == 0.125);
-  CHECK(b.theta == a.theta);
+  REQUIRE(b.regime);
+  CHECK(b.regime->kind == Regime::stick_slip);
+  CHECK(b.regime->drift == 0.015);
+  CHECK(b.regime->trend_share == 0.02);
+  CHECK(j["regime"]["mu_trusted"] == true);
+  CHECK(mu_warning(b).empty());
+  b.regime->kind = Regime::unsettled;
+  CHECK_THAT(mu_warning(b), Catch::StartsWith("mu is not a friction coefficient yet: the "
+                                              "averaging window [0.001, 0.003] s holds no whole "
+                                              "cycle"));
   CHECK(b.F_N == a.F_N);
   CHECK(b.contacts == 2);
   CHECK(b.t_end == a.t_end);
@@ -111,11 +121,14 @@ TEST_CASE("an older summary without the newer fields reads with them empty", "[s
   nlohmann::json j = to_json(full_summary());
   j.erase("mu_whole_cycles");
   j.erase("F_f_spread");
+  j.erase("regime");
   j.erase("events");
   j.erase("synchronization");
   const Summary s = summary_from_json(j);
   CHECK_FALSE(s.mu_whole_cycles);
   CHECK_FALSE(s.F_f_spread);
+  CHECK_FALSE(s.regime);
+  CHECK(mu_warning(s).empty());  // an older run's window was never judged
   CHECK_FALSE(s.events);
   CHECK_FALSE(s.synchronization);
   CHECK(s.mu == 5.25);

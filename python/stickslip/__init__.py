@@ -2,7 +2,7 @@
 
     import stickslip
     case = stickslip.Case.from_dict({"lattice": {"nx": 6, "ny": 6, "nz": 4},
-                                     "run": {"t_end": 1e-3}})
+                                     "run": {"t_end": 10e-3, "average_from": 5e-3}})
     run = stickslip.run(case.replace({"drive.velocity": 3e-4}))
     run.summary["mu"], run.friction.t, run.friction.mu_inst
 
@@ -13,7 +13,7 @@ Python objects and numpy arrays. The README's "Python" section says more.
 
 from ._case import Case
 from ._core import CaseError, IntegrationError, OutputError, git_commit
-from ._run import Contacts, Events, Friction, Interrupted, Run, Traces, load, run
+from ._run import Contacts, Events, Friction, Interrupted, MuWarning, Run, Traces, load, run
 from ._sweep import sweep
 
 __all__ = [
@@ -24,6 +24,7 @@ __all__ = [
     "Friction",
     "IntegrationError",
     "Interrupted",
+    "MuWarning",
     "OutputError",
     "Run",
     "Traces",

@@ -3,6 +3,7 @@
 import json
 import shutil
 import tempfile
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -73,6 +74,19 @@ class Run:
     def mu(self):
         """The time-averaged friction coefficient (summary["mu"]); None if unfinished."""
         return None if self.summary is None else self.summary["mu"]
+
+    @property
+    def mu_trusted(self):
+        """Whether μ is a friction coefficient: its window holds whole slip cycles
+        or steady sliding (summary["regime"]); None if unfinished or not judged."""
+        regime = None if self.summary is None else self.summary.get("regime")
+        return None if regime is None else regime["mu_trusted"]
+
+
+class MuWarning(UserWarning):
+    """A run's μ is not a friction coefficient: its averaging window holds no
+    whole slip cycle and no steady sliding (summary["regime"]), e.g. the
+    elastic loading from rest."""
 
 
 class Interrupted(KeyboardInterrupt):
@@ -165,7 +179,9 @@ def run(case, out=None, progress=False, overwrite=False, restart=False,
     such runs [solver] threads = 1 (the default, 0, gives each run every
     core, and runs side by side would oversubscribe them). Ctrl-C
     (SIGINT) or SIGTERM stops every run of the process at its next output
-    time, each raising Interrupted (a KeyboardInterrupt). Raises CaseError or
+    time, each raising Interrupted (a KeyboardInterrupt). A μ whose window
+    is the loading ramp, or less than a cycle, is warned of (MuWarning) and
+    flagged in summary["regime"]. Raises CaseError or
     OutputError for bad input, IntegrationError when the integration or its
     energy audit fails.
     """
@@ -187,6 +203,9 @@ def run(case, out=None, progress=False, overwrite=False, restart=False,
             _, signal, t = outcome
             raise Interrupted(signal, t, None if temporary else dir)
         result = load(dir)
+        warning = _core.mu_warning(json.dumps(result.summary))
+        if warning:
+            warnings.warn(warning, MuWarning, stacklevel=2)
         return Run(**{**result.__dict__, "dir": None}) if temporary else result
     finally:
         if temporary:

@@ -11,7 +11,7 @@ import numpy as np
 
 from . import _core
 from ._case import _overrides
-from ._run import Interrupted
+from ._run import Interrupted, MuWarning
 
 
 def executable():
@@ -60,7 +60,8 @@ def sweep(path, jobs=None, out=None, set=None, overwrite=False, any_version=Fals
     out/<sweep name>) and returns sweep.csv: a pandas DataFrame if pandas is
     installed, else a dict of numpy arrays. `jobs`: points run at once (default:
     every core); `set`: {"section.key": value} for every point, like --set.
-    Failed points are in the table with their status, and warned of.
+    Failed points are in the table with their status, and warned of; so are
+    points whose μ is no friction coefficient (column regime, MuWarning).
     `progress`: a line per point on the process's standard output (a
     terminal's, not a notebook's)."""
     if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, numbers.Integral) or jobs < 1):
@@ -75,4 +76,9 @@ def sweep(path, jobs=None, out=None, set=None, overwrite=False, any_version=Fals
     if outcome["failed"]:
         warnings.warn(f"{outcome['failed']} of the sweep's points failed: see their run.log",
                       RuntimeWarning, stacklevel=2)
-    return _read_csv(Path(outcome["out"]) / "sweep.csv")
+    table = _read_csv(Path(outcome["out"]) / "sweep.csv")
+    untrusted = [r for r in table["regime"] if isinstance(r, str) and r not in ("stick-slip", "steady sliding")]
+    if untrusted:
+        warnings.warn(f"{len(untrusted)} of the sweep's points have a μ that is not a friction coefficient "
+                      "(column regime: loading or unsettled): run them longer", MuWarning, stacklevel=2)
+    return table

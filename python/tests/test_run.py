@@ -293,3 +293,13 @@ def test_ctrl_c_stops_every_run_of_the_process(layout, expected, tmp_path):
     assert child.returncode == 0, stderr
     assert stdout.strip() == expected
     assert list(tmp.iterdir()) == []  # both temporary directories removed
+
+
+def test_a_mu_from_the_loading_ramp_is_warned_of_and_flagged():
+    # 6x6x4 at coverage 0.5 loads for ~4 ms from rest: a window at [1, 2] ms holds no slip.
+    case = {"lattice": {"nx": 6, "ny": 6, "nz": 4}, "interface.coverage": 0.5,
+            "run": {"t_end": 2e-3, "average_from": 1e-3}, "output.events": "none"}
+    with pytest.warns(stickslip.MuWarning, match="rises as a ramp"):
+        run = stickslip.run(case)
+    assert run.mu_trusted is False
+    assert run.summary["regime"]["kind"] == "loading"

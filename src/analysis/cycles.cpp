@@ -66,4 +66,54 @@ double relative_spread(std::span<const double> t, std::span<const double> f, dou
   return std::sqrt(m2 / (n - 1)) / mean;
 }
 
+const char* to_string(Regime r) {
+  switch (r) {
+    case Regime::stick_slip:
+      return "stick-slip";
+    case Regime::steady_sliding:
+      return "steady sliding";
+    case Regime::loading:
+      return "loading";
+    case Regime::unsettled:
+      return "unsettled";
+  }
+  return "?";
+}
+
+WindowRegime classify_window(std::span<const double> t, std::span<const double> f, double t_from,
+                             const CycleMean& cycles, double spread) {
+  // Least squares line through the window's samples, in centred sums.
+  double n = 0.0, t_mean = 0.0, f_mean = 0.0;
+  for (std::size_t i = 0; i < t.size(); ++i)
+    if (t[i] >= t_from) {
+      n += 1.0;
+      t_mean += (t[i] - t_mean) / n;
+      f_mean += (f[i] - f_mean) / n;
+    }
+  double stt = 0.0, stf = 0.0, sff = 0.0;
+  double t_first = t_mean, t_last = t_mean;
+  for (std::size_t i = 0; i < t.size(); ++i)
+    if (t[i] >= t_from) {
+      stt += (t[i] - t_mean) * (t[i] - t_mean);
+      stf += (t[i] - t_mean) * (f[i] - f_mean);
+      sff += (f[i] - f_mean) * (f[i] - f_mean);
+      t_first = std::min(t_first, t[i]);
+      t_last = std::max(t_last, t[i]);
+    }
+  WindowRegime r;
+  const double slope = stt > 0 ? stf / stt : 0.0;
+  r.drift = f_mean != 0.0 ? slope * (t_last - t_first) / f_mean : 0.0;
+  r.trend_share = stt > 0 && sff > 0 ? std::min(1.0, stf * stf / (stt * sff)) : 0.0;
+  // Steady first: a constant F_f's tiny wiggles cross its mean as often as they like.
+  if (std::abs(spread) <= kSteadySpread)
+    r.kind = Regime::steady_sliding;
+  else if (cycles.crossings >= 2)
+    r.kind = Regime::stick_slip;
+  else if (r.drift > 0 && r.trend_share >= kRampShare)
+    r.kind = Regime::loading;
+  else
+    r.kind = Regime::unsettled;
+  return r;
+}
+
 }  // namespace stickslip

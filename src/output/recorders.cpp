@@ -87,6 +87,7 @@ class FrictionRecorder final : public Recorder {
     summary.mu_whole_cycles =
         WholeCycleMu{cycles.mean / normal_force_, cycles.from, cycles.to, cycles.crossings};
     summary.F_f_spread = relative_spread(t_, friction_, average_from_);
+    summary.regime = classify_window(t_, friction_, average_from_, cycles, *summary.F_f_spread);
   }
 
  private:

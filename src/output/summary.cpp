@@ -1,6 +1,7 @@
 #include "stickslip/output/summary.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <stdexcept>
 
@@ -99,6 +100,11 @@ nlohmann::json to_json(const Summary& s) {
     for (const auto& seg : s.segments)
       segments.push_back({{"from", seg.from}, {"git_commit", seg.git_commit}});
   }
+  if (const auto& r = s.regime)
+    j["regime"] = {{"kind", to_string(r->kind)},
+                   {"mu_trusted", r->mu_trusted()},
+                   {"drift", number_or_null(r->drift)},
+                   {"trend_share", number_or_null(r->trend_share)}};
   if (const auto& c = s.mu_whole_cycles)
     j["mu_whole_cycles"] = {
         {"mu", c->mu}, {"from", c->from}, {"to", c->to}, {"crossings", c->crossings}};
@@ -143,6 +149,19 @@ Summary summary_from_json(const nlohmann::json& j) {
       return WholeCycleMu{number(*c, "mu"), number(*c, "from"), number(*c, "to"),
                           static_cast<long>(number(*c, "crossings"))};
     });
+  if (const auto* r = present(j, "regime"))  // absent before windows were judged
+    s.regime = inside("regime", [&] {
+      WindowRegime regime;
+      const auto kind = field(*r, "kind").get<std::string>();
+      bool known = false;
+      for (Regime k :
+           {Regime::stick_slip, Regime::steady_sliding, Regime::loading, Regime::unsettled})
+        if (kind == to_string(k)) regime.kind = k, known = true;
+      if (!known) throw std::invalid_argument("\"kind\": no regime \"" + kind + "\"");
+      regime.drift = number(*r, "drift");
+      regime.trend_share = number(*r, "trend_share");
+      return regime;
+    });
   if (const auto* f = present(j, "F_f_spread")) {
     if (!f->is_number()) throw std::invalid_argument("\"F_f_spread\" is not a number");
     s.F_f_spread = f->get<double>();
@@ -161,6 +180,24 @@ Summary summary_from_json(const nlohmann::json& j) {
   if (const auto* sync = present(j, "synchronization"))
     s.synchronization = inside("synchronization", [&] { return synchronization_from_json(*sync); });
   return s;
+}
+
+std::string mu_warning(const Summary& s) {
+  if (!s.regime || s.regime->mu_trusted()) return {};
+  char window[96];
+  std::snprintf(window, sizeof window, "the averaging window [%.4g, %.4g] s", s.average_from,
+                s.t_end);
+  const std::string advice =
+      "; run longer (run.t_end) and start the average later (run.average_from)";
+  if (s.regime->kind == Regime::loading) {
+    char rise[64];
+    std::snprintf(rise, sizeof rise, "%.0f %%", 100 * s.regime->drift);
+    return "mu is not a friction coefficient: in " + std::string(window) +
+           " F_f rises as a ramp (by " + rise +
+           ") with no whole slip cycle, the block still loading" + advice;
+  }
+  return "mu is not a friction coefficient yet: " + std::string(window) +
+         " holds no whole cycle of F_f and F_f is not steady" + advice;
 }
 
 void write_summary(const std::filesystem::path& dir, const Summary& s) {

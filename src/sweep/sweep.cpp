@@ -175,7 +175,10 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
   std::ostringstream table;
   table << "point";
   for (const auto& a : sweep.axes) table << ',' << a.key;
-  table << ",status,mu,mu_whole_cycles,F_f_spread,theta,contacts,F_N,energy_residual,slips,mean_"
+  // regime: what F_f does in the window (analysis/cycles.hpp); μ is a friction
+  // coefficient only in "stick-slip" and "steady sliding".
+  table << ",status,mu,mu_whole_cycles,regime,F_f_spread,theta,contacts,F_N,energy_residual,slips,"
+           "mean_"
            "recurrence,"
            "slipping_fraction";
   const char* const sync_columns[] = {"slip_rate_ratio",     "lag_mean",   "lag_min",  "lag_max",
@@ -192,7 +195,7 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
     const fs::path dir = out_dir / p.name;
     if (!summaries[i]) {
       const PointState state = states[i];
-      table << ',' << to_string(state) << std::string(any_sync ? 23 : 16, ',')
+      table << ',' << to_string(state) << std::string(any_sync ? 24 : 17, ',')
             << csv_field(state == PointState::failed ? last_line(dir / "run.log") : "") << '\n';
       continue;
     }
@@ -210,8 +213,9 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
         if (std::isfinite(c.slipping_fraction)) fraction += c.slipping_fraction, ++n_frac;
       }
     table << ",finished," << number(s.mu) << ','
-          << (s.mu_whole_cycles ? number(s.mu_whole_cycles->mu) : "") << ',' << number(s.F_f_spread)
-          << ',' << number(s.theta) << ',' << s.contacts << ',' << number(s.F_N) << ','
+          << (s.mu_whole_cycles ? number(s.mu_whole_cycles->mu) : "") << ','
+          << (s.regime ? to_string(s.regime->kind) : "") << ',' << number(s.F_f_spread) << ','
+          << number(s.theta) << ',' << s.contacts << ',' << number(s.F_N) << ','
           << number(s.energy_residual) << ',' << (s.events ? std::to_string(slips) : "") << ','
           << (n_rec ? number(recurrence / n_rec) : "") << ','
           << (n_frac ? number(fraction / n_frac) : "");
@@ -236,6 +240,7 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
     if (sweep.axes[i].key == sweep.average_over) avg_axis = i;
   struct Group {
     std::vector<double> mu, mu_cycles, theta;  // of the finished points
+    long untrusted = 0;  // finished points whose μ is no friction coefficient (loading, ...)
   };
   std::map<std::vector<std::size_t>, Group> groups;  // axis value indices -> points
   std::vector<std::vector<std::size_t>> order;
@@ -252,6 +257,7 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
     if (summaries[i] && std::isfinite(summaries[i]->mu)) {
       g.mu.push_back(summaries[i]->mu);
       g.theta.push_back(summaries[i]->theta);
+      if (const auto& r = summaries[i]->regime; r && !r->mu_trusted()) ++g.untrusted;
       if (const auto& cycles = summaries[i]->mu_whole_cycles) g.mu_cycles.push_back(cycles->mu);
     }
   }
@@ -271,7 +277,7 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
     if (a != avg_axis) summary << (first ? "" : ",") << sweep.axes[a].key, first = false;
   summary << (first ? "" : ",")
           << "theta_mean,mu_mean,mu_std,mu_sem,count,"
-             "mu_whole_cycles_mean,mu_whole_cycles_std,mu_whole_cycles_sem\n";
+             "mu_whole_cycles_mean,mu_whole_cycles_std,mu_whole_cycles_sem,untrusted\n";
   for (const auto& key : order) {
     std::size_t k = 0;
     for (std::size_t a = 0; a < sweep.axes.size(); ++a)
@@ -282,7 +288,8 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
     summary << (g.theta.empty() ? "" : num(theta)) << ',' << statistics(g.mu) << ',' << g.mu.size()
             << ','
             // Only when every finished point has it: never a mean over fewer points than count.
-            << (g.mu_cycles.size() == g.mu.size() ? statistics(g.mu_cycles) : ",,") << '\n';
+            << (g.mu_cycles.size() == g.mu.size() ? statistics(g.mu_cycles) : ",,") << ','
+            << g.untrusted << '\n';
   }
   write_atomically(out_dir / "sweep_summary.csv", [&](std::ostream& out) { out << summary.str(); });
   return finished;

@@ -31,4 +31,38 @@ CycleMean whole_cycle_mean(std::span<const double> t, std::span<const double> f,
 // fewer than two samples in the window or sizes that differ.
 double relative_spread(std::span<const double> t, std::span<const double> f, double t_from);
 
+// What F_f does in the averaging window, and so what its mean is. Only the
+// first two make μ a friction coefficient: from rest the block first loads
+// elastically, F_f rising as a ramp with no slip, and a window on that ramp
+// gives a μ that falls as 1/θ (more contacts, the same loading rate, a
+// smaller F_f/F_N) — the paper's trend, produced by the wrong physics.
+enum class Regime {
+  steady_sliding,  // F_f constant: relative spread ≤ kSteadySpread
+  stick_slip,      // else whole cycles: two or more downward crossings of the window mean
+  loading,         // no whole cycle, F_f rising, the rise most of its variance
+  unsettled,       // no whole cycle, neither steady nor a ramp (a cycle cut short)
+};
+const char* to_string(Regime r);
+
+// Below it F_f counts as constant. Steady sliding on 6×6×4 (cases/steady.toml)
+// has 4e-10; stick-slip windows have 0.09–0.3, loading ramps ~0.2.
+inline constexpr double kSteadySpread = 1e-3;
+// A ramp: the straight line through F_f explains this share of its variance
+// or more. Loading windows from rest measured ≥ 0.99998; stick-slip windows
+// ≤ 0.03 (whole cycles or not, the sawtooth's swings are not a line).
+inline constexpr double kRampShare = 0.75;
+
+struct WindowRegime {
+  Regime kind = Regime::unsettled;
+  double drift = 0.0;        // the fitted line's change across the window over mean F
+  double trend_share = 0.0;  // of F's variance explained by that line, in [0, 1]
+  // μ is a time-averaged friction coefficient only in these two.
+  bool mu_trusted() const { return kind == Regime::stick_slip || kind == Regime::steady_sliding; }
+};
+
+// The regime of F (samples with t ≥ t_from, as whole_cycle_mean) given its
+// whole-cycle mean and relative spread from the same samples.
+WindowRegime classify_window(std::span<const double> t, std::span<const double> f, double t_from,
+                             const CycleMean& cycles, double spread);
+
 }  // namespace stickslip

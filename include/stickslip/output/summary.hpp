@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "stickslip/analysis/cycles.hpp"
 #include "stickslip/analysis/events.hpp"
 #include "stickslip/integrate/solver_stats.hpp"
 
@@ -44,6 +45,9 @@ struct Summary {
   double mu = 0.0;  // over [average_from, t_end], from the friction impulse
   std::optional<WholeCycleMu> mu_whole_cycles;
   std::optional<double> F_f_spread;  // sd/mean of F_f's samples in the window
+  // What F_f does in the window (analysis/cycles.hpp); whether μ is a
+  // friction coefficient. Empty with fewer than two samples in the window.
+  std::optional<WindowRegime> regime;
   double theta = 0.0;
   double F_N = 0.0;  // [N]
   long contacts = 0;
@@ -61,6 +65,10 @@ struct Summary {
 };
 
 nlohmann::json to_json(const Summary& s);
+// The warning for a μ that is not a friction coefficient (a window on the
+// loading ramp, or less than a cycle), naming what to change; empty if μ is
+// one, or its window was not judged.
+std::string mu_warning(const Summary& s);
 // Throws std::invalid_argument naming the first field that is missing or of
 // the wrong type. Fields a summary of an older version lacks
 // (mu_whole_cycles, F_f_spread) are left empty.
