@@ -13,7 +13,7 @@ Python objects and numpy arrays. The README's "Python" section says more.
 
 from ._case import Case
 from ._core import CaseError, IntegrationError, OutputError, git_commit
-from ._run import Contacts, Events, Friction, Interrupted, Run, Traces, load, run
+from ._run import Contacts, Events, Friction, Interrupted, Run, Slips, Traces, load, run
 from ._sweep import sweep
 
 __all__ = [
@@ -26,6 +26,7 @@ __all__ = [
     "Interrupted",
     "OutputError",
     "Run",
+    "Slips",
     "Traces",
     "git_commit",
     "load",
