@@ -13,7 +13,7 @@ Python objects and numpy arrays. The README's "Python" section says more.
 
 from ._case import Case
 from ._core import CaseError, IntegrationError, OutputError, git_commit
-from ._run import Contacts, Events, Friction, Interrupted, MuWarning, Run, Traces, load, run
+from ._run import Contacts, Events, Friction, Interrupted, MuWarning, Run, Slips, Traces, load, run
 from ._sweep import sweep
 
 __all__ = [
@@ -27,6 +27,7 @@ __all__ = [
     "MuWarning",
     "OutputError",
     "Run",
+    "Slips",
     "Traces",
     "git_commit",
     "load",

@@ -35,13 +35,37 @@ class Traces:
 
 @dataclass(frozen=True)
 class Events:
-    """events.csv: every stick/slip transition of the watched contacts, in time order."""
+    """events.csv: every stick/slip transition of the watched contacts, in time
+    order. `speed` and `force` say where the transition was located rather
+    than measure anything: the speed is κ v* there (to the root finder's
+    tolerance), so a single-site contact's force is the same at all of its
+    transitions. What changes from slip to slip is in Slips."""
 
     t: np.ndarray  # [s]
     contact: np.ndarray  # contact id
     kind: np.ndarray  # "slip" or "stick"
-    speed: np.ndarray  # [m/s], the contact's speed at the transition
-    force: np.ndarray  # [N], the contact's force there
+    speed: np.ndarray  # [m/s], the contact's speed |s| at the transition: κ v*
+    force: np.ndarray  # [N], its contact law's force |F| at that speed
+
+
+@dataclass(frozen=True)
+class Slips:
+    """slips.csv, the event catalogue: one row per slip of a watched contact,
+    from its slip event to its next stick event, in the order the slips end.
+    A slip under way at t = 0 or still going at t_end has no row."""
+
+    t_start: np.ndarray  # [s], the slip event
+    t_end: np.ndarray  # [s], the stick event that ends it
+    contact: np.ndarray  # contact id
+    duration: np.ndarray  # [s], t_end - t_start
+    slip: np.ndarray  # [m], |u(t_end) - u(t_start)|, u the contact's in-plane displacement
+    peak_speed: np.ndarray  # [m/s], the largest |s| sampled in between (README)
+    load_start: np.ndarray  # [N], |force of the block on the contact| at t_start
+    load_end: np.ndarray  # [N], the same at t_end
+    load_drop: np.ndarray  # [N], load_start - load_end
+    F_f_start: np.ndarray  # [N], the block's friction force F_f at t_start
+    F_f_end: np.ndarray  # [N], F_f at t_end
+    F_f_drop: np.ndarray  # [N], F_f_start - F_f_end
 
 
 @dataclass(frozen=True)
@@ -57,8 +81,9 @@ class Contacts:
 @dataclass(frozen=True)
 class Run:
     """A run's results. `summary` is summary.json as a dict (None while a run
-    is unfinished); `traces` and `events` are None when the case did not ask
-    for them; `tables` holds the other tables it asked for (steps, signals,
+    is unfinished); `traces`, `events` and `slips` are None when the case did
+    not ask for them (`slips` also for a run written before slips.csv
+    existed); `tables` holds the other tables it asked for (steps, signals,
     final_state) as {column: array}; `dir` is where its files are (None for a
     run made without `out`)."""
 
@@ -67,6 +92,7 @@ class Run:
     contacts: Contacts
     traces: Traces | None = None
     events: Events | None = None
+    slips: Slips | None = None
     tables: dict = field(default_factory=dict)
     dir: Path | None = None
 
@@ -146,7 +172,12 @@ def load(dir):
             t=e["t"], contact=e["contact"], kind=np.array(e["kind"], dtype=str), speed=e["speed"],
             force=e["force"],
         )
-    typed = ("friction", "contacts", "traces", "events")
+    slips = None
+    if _core.has_table(dir, "slips"):
+        c = dict(_core.read_columns(dir, "slips"))
+        c["contact"] = c["contact"].astype(np.int64)
+        slips = Slips(**{name: c[name] for name in Slips.__dataclass_fields__})
+    typed = ("friction", "contacts", "traces", "events", "slips")
     tables = {name: dict(_core.read_columns(dir, name)) for name in _core.recorder_tables()
               if name not in typed and _core.has_table(dir, name)}
     return Run(
@@ -155,6 +186,7 @@ def load(dir):
         contacts=contacts,
         traces=traces,
         events=events,
+        slips=slips,
         tables=tables,
         dir=dir,
     )

@@ -23,7 +23,7 @@ def test_the_module_and_the_command_line_give_the_same_run_bit_for_bit(pair_file
     assert run.summary["mu"] == from_cli.summary["mu"]
     assert run.summary["solver_stats"] == from_cli.summary["solver_stats"]
     assert run.summary["energy_residual"] == from_cli.summary["energy_residual"]
-    for table in ("events.csv", "friction.csv", "traces.csv"):
+    for table in ("events.csv", "slips.csv", "friction.csv", "traces.csv"):
         assert (tmp_path / "py" / table).read_bytes() == (tmp_path / "cli" / table).read_bytes()
     # Without `out` nothing is kept, and the numbers are the same.
     in_memory = stickslip.run(case)
@@ -82,6 +82,67 @@ def test_load_reads_csv_and_hdf5_runs_alike(pair_file, tmp_path):
     np.testing.assert_allclose(hdf5.tables["steps"]["h"], csv.tables["steps"]["h"], rtol=1e-9)
     with pytest.raises(stickslip.OutputError, match="holds no run"):
         stickslip.load(tmp_path)
+
+
+SLIP_COLUMNS = ("t_start", "t_end", "duration", "slip", "peak_speed", "load_start", "load_end",
+                "load_drop", "F_f_start", "F_f_end", "F_f_drop")
+
+
+def test_the_slip_catalogue_reads_the_same_from_csv_and_hdf5_and_old_runs_have_none(pair_file, tmp_path):
+    case = stickslip.Case.from_toml(pair_file)
+    csv = stickslip.run(case, out=tmp_path / "csv")
+    hdf5 = stickslip.run(case.replace({"output.format": "hdf5"}), out=tmp_path / "hdf5")
+    assert set(stickslip.Slips.__dataclass_fields__) == {"contact", *SLIP_COLUMNS}
+    assert len(csv.slips.t_end) == len(hdf5.slips.t_end) >= 2  # each contact's first slip, at least
+    np.testing.assert_array_equal(csv.slips.contact, hdf5.slips.contact)
+    assert csv.slips.contact.dtype == np.int64
+    for name in SLIP_COLUMNS:  # CSV prints 15 digits for the times, 10 for the rest
+        rtol = 1e-14 if name.startswith("t_") else 1e-9
+        np.testing.assert_allclose(getattr(csv.slips, name), getattr(hdf5.slips, name), rtol=rtol,
+                                   err_msg=name)
+    # A run written before slips.csv existed loads without it.
+    (tmp_path / "csv" / "slips.csv").unlink()
+    old = stickslip.load(tmp_path / "csv")
+    assert old.slips is None and old.events is not None and "slips" not in old.tables
+
+
+def test_each_slip_is_its_events_and_what_the_dense_traces_show_in_between(pair_file):
+    # Traced every 1e-8 s through the first slip of each contact (~3.4 µs each).
+    case = stickslip.Case.from_toml(pair_file).replace(
+        {"run.t_end": 8.7e-4, "run.average_from": 1e-4, "output.interval": 1e-8, "output.format": "hdf5"})
+    run = stickslip.run(case)
+    s, e, tr, f = run.slips, run.events, run.traces, run.friction
+    assert sorted(s.contact.tolist()) == [0, 1]
+    for i, contact in enumerate(s.contact):
+        # Its ends are the contact's slip event and the stick after it, to the bit.
+        mine = e.contact == contact
+        start = np.flatnonzero(mine & (e.kind == "slip") & (e.t == s.t_start[i]))
+        end = np.flatnonzero(mine & (e.kind == "stick") & (e.t == s.t_end[i]))
+        assert start.size == end.size == 1
+        assert not np.any(mine & (e.t > s.t_start[i]) & (e.t < s.t_end[i]))
+        assert s.duration[i] == s.t_end[i] - s.t_start[i]
+        # Between them, the traced velocity: the slip is its integral (trapezoids,
+        # ends interpolated), the peak at least every traced speed and above
+        # their largest by no more than the solution curves between two of them.
+        inside = (tr.t > s.t_start[i]) & (tr.t < s.t_end[i])
+        k = tr.contact.tolist().index(contact)
+        t = np.concatenate(([s.t_start[i]], tr.t[inside], [s.t_end[i]]))
+        v = [np.interp(t, tr.t, component[:, k]) for component in (tr.vx, tr.vy)]
+        displacement = [np.sum(np.diff(t) * (c[1:] + c[:-1]) / 2) for c in v]
+        assert s.slip[i] == pytest.approx(np.hypot(*displacement), rel=1e-4)
+        speeds = np.hypot(tr.vx[inside, k], tr.vy[inside, k])
+        assert speeds.size > 300
+        assert s.peak_speed[i] >= speeds.max()
+        assert s.peak_speed[i] <= speeds.max() * (1 + 2e-5)  # curvature ~1e11 m/s³ over 5e-9 s
+        # The block's friction at the two events, as friction.csv has it around them.
+        assert s.F_f_start[i] == pytest.approx(np.interp(s.t_start[i], f.t, f.F_f), rel=1e-6)
+        assert s.F_f_end[i] == pytest.approx(np.interp(s.t_end[i], f.t, f.F_f), rel=1e-6)
+        assert s.F_f_drop[i] == s.F_f_start[i] - s.F_f_end[i]
+        # The load on a contact as it lets go is what its friction holds at κ v*
+        # (inertia apart: measured 2e-4 of it); the slip relieves it.
+        assert s.load_start[i] == pytest.approx(e.force[start[0]], rel=1e-2)
+        assert 0 < s.load_end[i] < 0.8 * s.load_start[i]
+        assert s.load_drop[i] == s.load_start[i] - s.load_end[i]
 
 
 def test_bad_output_and_failed_runs_raise_the_command_lines_errors(pair_file, tmp_path):

@@ -82,6 +82,7 @@ MultirateIntegrator::MultirateIntegrator(const System& system, const SolverParam
   }
   begin_step_derivative();
   roots_.assign(options_.watched_contacts.size(), 0);
+  peaks_ = SpeedPeaks(roots_.size());
   sign_.resize(roots_.size());
   std::vector<double> g(roots_.size());
   system_.stick_slip_roots(y_, options_.watched_contacts, g);
@@ -430,7 +431,25 @@ void MultirateIntegrator::accept(double H) {
   ++stats_.steps;
   stats_.fast_contact_steps += static_cast<long>(step_->fast.size());
   stats_.last_step = H;
+  if (!roots_.empty()) sample_speeds();
   record(step_->error);
+}
+
+void MultirateIntegrator::sample_speeds() {
+  const Step& st = *step_;
+  // Every later return lies in this step (advance): what came before it is settled.
+  peaks_.settle(st.t0);
+  std::vector<long> fast_index(contact_a_.size(), -1);
+  for (std::size_t q = 0; q < st.fast.size(); ++q) fast_index[st.fast[q]] = static_cast<long>(q);
+  for (std::size_t k = 0; k < roots_.size(); ++k) {
+    const auto c = static_cast<std::size_t>(options_.watched_contacts[k]);  // = its site
+    if (fast_index[c] < 0) {
+      peaks_.sample(k, t_, system_.contact_speed(c, y_));
+      continue;
+    }
+    for (const SubstepPoint& p : st.fine[static_cast<std::size_t>(fast_index[c])].points)
+      peaks_.sample(k, st.t0 + p.tau, std::hypot(p.x[2], p.x[3]));
+  }
 }
 
 void MultirateIntegrator::record(double error) {
@@ -481,8 +500,10 @@ bool MultirateIntegrator::next_root(double t_from, double t_to, double& t_root) 
   const double kappa = system_.slip_threshold();
   std::vector<long> fast_index(contact_a_.size(), -1);
   for (std::size_t q = 0; q < st.fast.size(); ++q) fast_index[st.fast[q]] = static_cast<long>(q);
-  // Contact c's g = |s| − κ v* at t in the step (patch = 1: contact c is site c).
-  auto g = [&](std::size_t c, double t) {
+  // Watched contact k's g = |s| − κ v* at t in the step (patch = 1: contact
+  // c is site c); its speed is a sample for peaks_.
+  auto g = [&](std::size_t k, double t) {
+    const auto c = static_cast<std::size_t>(options_.watched_contacts[k]);
     const double tau = t - st.t0;
     std::array<double, 2> s{};
     if (fast_index[c] >= 0) {
@@ -494,12 +515,14 @@ bool MultirateIntegrator::next_root(double t_from, double t_to, double& t_root) 
     } else {
       const auto w = hermite_weights(std::clamp(tau / st.H, 0.0, 1.0), st.H);
       const auto wx = static_cast<std::size_t>(w_of(system_, c));
-      for (std::size_t k = 0; k < 2; ++k)
-        s[k] =
-            w.a * st.y0[wx + k] + w.b * st.f0[wx + k] + w.c * st.y1[wx + k] + w.d * st.f1[wx + k];
+      for (std::size_t axis = 0; axis < 2; ++axis)
+        s[axis] = w.a * st.y0[wx + axis] + w.b * st.f0[wx + axis] + w.c * st.y1[wx + axis] +
+                  w.d * st.f1[wx + axis];
     }
     ++stats_.root_evaluations;
-    return std::hypot(s[0], s[1]) - kappa * system_.contacts()[c].v_star;
+    const double speed = std::hypot(s[0], s[1]);
+    peaks_.sample(k, t, speed);
+    return speed - kappa * system_.contacts()[c].v_star;
   };
   bool found = false;
   double best = t_to;
@@ -517,7 +540,7 @@ bool MultirateIntegrator::next_root(double t_from, double t_to, double& t_root) 
     double lo = t_from;
     for (const double hi : ends) {
       if (found && hi > best) break;
-      const int side = g(c, hi) > 0.0 ? 1 : -1;
+      const int side = g(k, hi) > 0.0 ? 1 : -1;
       if (side == sign_[k]) {
         lo = hi;
         continue;
@@ -526,7 +549,7 @@ bool MultirateIntegrator::next_root(double t_from, double t_to, double& t_root) 
       double a = lo, b = hi;
       for (int it = 0; it < 80 && b - a > 1e-15 * std::abs(b); ++it) {
         const double mid = 0.5 * (a + b);
-        ((g(c, mid) > 0.0 ? 1 : -1) == sign_[k] ? a : b) = mid;
+        ((g(k, mid) > 0.0 ? 1 : -1) == sign_[k] ? a : b) = mid;
       }
       if (!found || b < best) {
         crossings.clear();
@@ -547,6 +570,12 @@ bool MultirateIntegrator::next_root(double t_from, double t_to, double& t_root) 
 }
 
 double MultirateIntegrator::advance(double t_out, std::span<double> y) {
+  const double t = advance_to(t_out, y);
+  peaks_.close(t);
+  return t;
+}
+
+double MultirateIntegrator::advance_to(double t_out, std::span<double> y) {
   std::fill(roots_.begin(), roots_.end(), 0);
   for (;;) {
     if (step_ && t_reached_ < t_) {

@@ -23,6 +23,7 @@ SteppingIntegrator::SteppingIntegrator(const System& system, const SolverParams&
 
 void SteppingIntegrator::init_stepping(std::size_t watched_contacts) {
   roots_.assign(watched_contacts, 0);
+  peaks_ = SpeedPeaks(watched_contacts);
   pending_y_.reset(N_VClone(y_.get()));
   if (options_.on_step) {
     scratch_error_.reset(N_VClone(y_.get()));
@@ -45,11 +46,18 @@ int SteppingIntegrator::implicit_rhs(double t, N_Vector y, N_Vector ydot, void* 
   return guarded(me->pending_, [&] { me->system_.rhs_implicit(t, as_span(y), as_span(ydot)); });
 }
 
-int SteppingIntegrator::root_fn(double, N_Vector y, double* g, void* self) {
+// The packages evaluate the root functions at every accepted step's end (or
+// an output time inside the step) and where they locate a crossing: each
+// evaluation is also a sample of the contacts' speeds for peak_speeds.
+int SteppingIntegrator::root_fn(double t, N_Vector y, double* g, void* self) {
   auto* me = static_cast<SteppingIntegrator*>(self);
   return guarded(me->pending_, [&] {
-    me->system_.stick_slip_roots(as_span(y), me->options_.watched_contacts,
-                                 std::span<double>(g, me->roots_.size()));
+    const auto state = as_span(y);
+    const auto& watched = me->options_.watched_contacts;
+    me->system_.stick_slip_roots(state, watched, std::span<double>(g, me->roots_.size()));
+    for (std::size_t k = 0; k < watched.size(); ++k)
+      me->peaks_.sample_frontier(
+          k, t, me->system_.contact_speed(static_cast<std::size_t>(watched[k]), state));
   });
 }
 
@@ -115,7 +123,9 @@ double SteppingIntegrator::advance(double t_out, std::span<double> y) {
   // Stepwise until the first step is taken (its h0 then comes from t_stop,
   // not t_out) and while a root found beyond an output time waits.
   const bool stepwise = options_.on_step || pending_root_ || steps_taken() == 0;
-  return stepwise ? advance_stepwise(t_out, y) : advance_normal(t_out, y);
+  const double t = stepwise ? advance_stepwise(t_out, y) : advance_normal(t_out, y);
+  peaks_.close(t);
+  return t;
 }
 
 double SteppingIntegrator::finish(double t, std::span<double> y) {

@@ -536,6 +536,32 @@ std::array<double, 2> System::contact_velocity(std::size_t i, std::span<const do
   return {mean[0] / n, mean[1] / n};
 }
 
+double System::contact_speed(std::size_t i, std::span<const double> y) const {
+  const auto s = contact_velocity(i, y);
+  return std::hypot(s[0], s[1]);
+}
+
+std::array<double, 2> System::contact_displacement(std::size_t i, std::span<const double> y) const {
+  const auto sites = sites_of(i);
+  std::array<double, 2> mean{};
+  for (const auto& site : sites) {
+    const std::int64_t ux = u_index(site.node, 0);
+    mean[0] += y[ux];
+    mean[1] += y[ux + 1];
+  }
+  const double n = static_cast<double>(sites.size());
+  return {mean[0] / n, mean[1] / n};
+}
+
+double System::contact_load(std::size_t i, std::span<const double> acc) const {
+  std::array<double, 2> sum{};
+  for (const auto& site : sites_of(i)) {
+    sum[0] += acc[static_cast<std::size_t>(3 * site.node)];
+    sum[1] += acc[static_cast<std::size_t>(3 * site.node + 1)];
+  }
+  return mass_ * std::hypot(sum[0], sum[1]);
+}
+
 std::array<double, 2> System::site_acceleration(std::size_t j, std::array<double, 2> s) const {
   return stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_, sites_[j].v_star, s[0],
                                          s[1]);
@@ -545,8 +571,7 @@ void System::stick_slip_roots(std::span<const double> y, std::span<const int> wa
                               std::span<double> g) const {
   for (std::size_t k = 0; k < watched.size(); ++k) {
     const auto i = static_cast<std::size_t>(watched[k]);
-    const auto s = contact_velocity(i, y);
-    g[k] = std::hypot(s[0], s[1]) - slip_threshold_ * contacts_[i].v_star;
+    g[k] = contact_speed(i, y) - slip_threshold_ * contacts_[i].v_star;
   }
 }
 

@@ -51,7 +51,8 @@ void write_checkpoint(const std::filesystem::path& dir, const Checkpoint& c) {
                            {"wall_seconds", c.wall_seconds},
                            {"case", c.case_json},
                            {"git_commit", c.git_commit},
-                           {"segments", nlohmann::json::array()}};
+                           {"segments", nlohmann::json::array()},
+                           {"recorders", c.recorders}};
   auto& segments = header["segments"];
   for (const auto& seg : c.segments)
     segments.push_back({{"from", seg.from}, {"git_commit", seg.git_commit}});
@@ -92,6 +93,8 @@ Checkpoint read_checkpoint(const std::filesystem::path& dir) {
     } else {
       c.segments.push_back({0.0, c.git_commit});
     }
+    // Absent in checkpoints of older code: the recorders saved nothing.
+    c.recorders = h.value("recorders", nlohmann::json::object());
   } catch (const nlohmann::json::exception& e) {
     throw OutputError(file.string() + ": damaged checkpoint header: " + e.what());
   }

@@ -204,7 +204,7 @@ class EventsRecorder final : public Recorder {
     pair_va_.push_back(system_.contact_velocity(static_cast<std::size_t>(pair_->first), y)[0]);
     pair_vb_.push_back(system_.contact_velocity(static_cast<std::size_t>(pair_->second), y)[0]);
   }
-  void event(const Event& e) override {
+  void event(const Event& e, std::span<const double>) override {
     events_.push_back(e);
     const double row[5] = {e.t, double(e.contact), double(static_cast<int>(e.kind)), e.speed,
                            e.force};
@@ -237,6 +237,139 @@ class EventsRecorder final : public Recorder {
   std::optional<std::pair<int, int>> pair_;
   bool pair_traced_ = false;
   std::vector<double> pair_t_, pair_va_, pair_vb_;
+};
+
+// slips: the catalogue, one row per slip of a watched contact, from its slip
+// event to its next stick event, written at the stick: when and how long,
+// how far the contact moved, how fast at most, and how much the load on it
+// and the block's friction fell (README, "slips.csv"). A slip already under
+// way at t = 0 (a run started sliding) or still going at t_end has no row.
+// The peak speed is the largest of the contact's speed at the two events, at
+// every state the integrator returned in between (output times, stops, other
+// contacts' events) and at the integrator's own samples of it
+// (Integrator::peak_speeds): all points of the computed solution, so never
+// above its maximum. A slip under way at a checkpoint is saved in it (its
+// start and peak so far cannot be read back from the table).
+class SlipsRecorder final : public Recorder {
+ public:
+  static constexpr const char* kTable = "slips";
+  explicit SlipsRecorder(const RecorderSetup& s)
+      : system_(s.system),
+        watched_(s.watched),
+        index_(s.system.contacts().size(), -1),
+        open_(s.watched.size()),
+        acc_(static_cast<std::size_t>(3 * s.system.num_nodes())),
+        // A run begun by code older than this table (continued with
+        // --any-version) has none: its catalogue starts at the restart.
+        table_(s.resume_at && !has_run_table(s.dir, kTable) ? s.tables.create(spec())
+                                                            : open_table(s, spec())) {
+    for (std::size_t k = 0; k < watched_.size(); ++k)
+      index_[static_cast<std::size_t>(watched_[k])] = static_cast<int>(k);
+    if (!s.resume_at) return;
+    const auto saved = s.saved.find(kTable);
+    if (saved == s.saved.end()) return;  // an older checkpoint: the slips under way are lost
+    for (const auto& o : *saved) {
+      const int k = index_.at(o.at("contact").get<std::size_t>());
+      if (k < 0) continue;
+      auto number = [](const nlohmann::json& x) { return x.get<double>(); };
+      open_[static_cast<std::size_t>(k)] = Start{number(o.at("t")),
+                                                 {number(o.at("u").at(0)), number(o.at("u").at(1))},
+                                                 number(o.at("load")),
+                                                 number(o.at("F_f")),
+                                                 number(o.at("peak"))};
+    }
+  }
+  void reached(double, std::span<const double> y, std::span<const double> peaks) override {
+    have_acc_ = false;  // a new state
+    for (std::size_t k = 0; k < open_.size(); ++k) {
+      if (!open_[k]) continue;
+      const double speed = system_.contact_speed(static_cast<std::size_t>(watched_[k]), y);
+      open_[k]->peak = std::max({open_[k]->peak, peaks[k], speed});
+    }
+  }
+  void event(const Event& e, std::span<const double> y) override {
+    const int k = index_.at(static_cast<std::size_t>(e.contact));
+    if (k < 0) return;
+    auto& open = open_[static_cast<std::size_t>(k)];
+    if (e.kind == EventKind::slip) {
+      if (!open) open = at(e, y);  // (a repeated slip event keeps the first)
+      return;
+    }
+    if (!open) return;  // under way before the run (or a lost checkpoint) began
+    const Start& start = *open;
+    const Start now = at(e, y);
+    const double row[12] = {e.t,
+                            double(e.contact),
+                            start.t,
+                            e.t - start.t,
+                            std::hypot(now.u[0] - start.u[0], now.u[1] - start.u[1]),
+                            std::max(start.peak, e.speed),
+                            start.load,
+                            now.load,
+                            start.load - now.load,
+                            start.F_f,
+                            now.F_f,
+                            start.F_f - now.F_f};
+    table_->append(row);
+    open.reset();
+  }
+  void flush() override { table_->flush(); }
+  void save(nlohmann::json& saved) const override {
+    nlohmann::json slips = nlohmann::json::array();
+    for (std::size_t k = 0; k < open_.size(); ++k)
+      if (const auto& o = open_[k])
+        slips.push_back({{"contact", watched_[k]},
+                         {"t", o->t},
+                         {"u", {o->u[0], o->u[1]}},
+                         {"load", o->load},
+                         {"F_f", o->F_f},
+                         {"peak", o->peak}});
+    saved[kTable] = std::move(slips);
+  }
+
+ private:
+  // A slip's start, and its peak speed so far.
+  struct Start {
+    double t;
+    std::array<double, 2> u;  // the contact's in-plane displacement [m]
+    double load, F_f;         // [N]
+    double peak;              // [m/s]
+  };
+  static TableSpec spec() {
+    // Rows come in the order the slips end: the end time first, as the time
+    // a restart cuts the table back to.
+    return {kTable,
+            {{.name = "t_end", .unit = "s", .digits = 15},
+             integer("contact"),
+             {.name = "t_start", .unit = "s", .digits = 15},
+             real("duration", "s"),
+             real("slip", "m"),
+             real("peak_speed", "m/s"),
+             real("load_start", "N"),
+             real("load_end", "N"),
+             real("load_drop", "N"),
+             real("F_f_start", "N"),
+             real("F_f_end", "N"),
+             real("F_f_drop", "N")}};
+  }
+  Start at(const Event& e, std::span<const double> y) {
+    const auto i = static_cast<std::size_t>(e.contact);
+    if (!have_acc_) {  // one lattice evaluation for all events at this state
+      const auto n3 = acc_.size();
+      system_.lattice_accelerations(e.t, y.subspan(0, n3), y.subspan(n3, n3), acc_);
+      have_acc_ = true;
+    }
+    return {e.t, system_.contact_displacement(i, y), system_.contact_load(i, acc_),
+            system_.friction_force(e.t, y), e.speed};
+  }
+
+  const System& system_;
+  std::vector<int> watched_;
+  std::vector<int> index_;  // contact id -> its index in watched_, −1 if not watched
+  std::vector<std::optional<Start>> open_;  // per watched contact: its slip under way
+  std::vector<double> acc_;                 // lattice accelerations at the last state
+  bool have_acc_ = false;
+  std::unique_ptr<Table> table_;
 };
 
 // steps: every accepted step's size, error estimate and h λ; with method =
@@ -367,6 +500,8 @@ constexpr RecorderKind kRecorders[] = {
      make<TracesRecorder>},
     {EventsRecorder::kTable, [](const RecorderSetup& s) { return !s.watched.empty(); },
      make<EventsRecorder>},
+    {SlipsRecorder::kTable, [](const RecorderSetup& s) { return !s.watched.empty(); },
+     make<SlipsRecorder>},
     {StepsRecorder::kTable, [](const RecorderSetup& s) { return s.c.output.steps; },
      make<StepsRecorder>},
     {SignalsRecorder::kTable, [](const RecorderSetup& s) { return s.c.output.signals; },

@@ -143,6 +143,9 @@ struct CaseRun::State {
   // Integrates to `target`, stopping at every stick/slip transition on the
   // way. Returns the time reached: `target`, or earlier on a stop request.
   double advance_to(double target);
+  // The integrator returned at t: the recorders learn the state there and
+  // its peak speeds (Recorder::reached), then its events.
+  void reached(double t);
   void record_events(double t);
   void record(double t);
   // A run that goes wrong stops here, keeping every row written so far; its
@@ -244,7 +247,8 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
   watched = selected_contacts(c.output.events, c.output.event_ids, contacts.size());
   recorders = make_recorders(
       {c, system, *tables, dir, y0, resume ? std::optional<double>(resume->t) : std::nullopt,
-       selected_contacts(c.output.traces, c.output.trace_ids, contacts.size()), watched});
+       selected_contacts(c.output.traces, c.output.trace_ids, contacts.size()), watched,
+       resume ? resume->recorders : nlohmann::json::object()});
 
   IntegratorOptions integrator_options;
   integrator_options.watched_contacts = watched;
@@ -301,6 +305,11 @@ double CaseRun::State::total_wall_seconds() const {
   return (resume ? resume->wall_seconds : 0.0) + seconds_since(wall_start);
 }
 
+void CaseRun::State::reached(double t) {
+  const auto peaks = integrator->peak_speeds();
+  for (const auto& r : recorders) r->reached(t, y, peaks);
+}
+
 void CaseRun::State::record_events(double t) {
   const auto roots = integrator->roots();
   for (std::size_t k = 0; k < roots.size(); ++k) {
@@ -309,14 +318,17 @@ void CaseRun::State::record_events(double t) {
     const auto v = system.contact_velocity(id, y);
     const Event e{t, watched[k], roots[k] > 0 ? EventKind::slip : EventKind::stick,
                   std::hypot(v[0], v[1]), system.contact_force(id, y)};
-    for (const auto& r : recorders) r->event(e);
+    for (const auto& r : recorders) r->event(e, y);
   }
 }
 
 double CaseRun::State::advance_to(double target) {
   for (;;) {
     const double t = integrator->advance(target, y);
-    if (!watched.empty()) record_events(t);
+    if (!watched.empty()) {
+      reached(t);
+      record_events(t);
+    }
     if (t >= target || g_stop_signal) return t;
   }
 }
@@ -348,6 +360,8 @@ void CaseRun::State::check_health(double t) const {
 
 void CaseRun::State::checkpoint(double t, long k) {
   flush_all();
+  nlohmann::json saved = nlohmann::json::object();
+  for (const auto& r : recorders) r->save(saved);
   write_checkpoint(dir, {.t = t,
                          .output_index = k,
                          .impulse_at_average = impulse_at_avg,
@@ -356,7 +370,8 @@ void CaseRun::State::checkpoint(double t, long k) {
                          .wall_seconds = total_wall_seconds(),
                          .case_json = to_json(c),
                          .git_commit = kGitCommit,
-                         .segments = segments});
+                         .segments = segments,
+                         .recorders = std::move(saved)});
 }
 
 void CaseRun::State::stop_if_requested(double t, long k) {

@@ -22,6 +22,9 @@ struct Event {
   double t = 0.0;   // [s]
   int contact = 0;  // contact id
   EventKind kind = EventKind::slip;
+  // Where the event was located rather than a measurement: |s| is κ v* there
+  // (to the root finder's tolerance), so for a single-site contact the force
+  // is the same at every event. slips.csv has what changes (recorders.cpp).
   double speed = 0.0;  // |s| at the event [m/s]
   double force = 0.0;  // magnitude of the contact force at the event [N]
 };

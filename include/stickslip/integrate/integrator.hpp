@@ -65,6 +65,15 @@ class Integrator {
   virtual double advance(double t_out, std::span<double> y) = 0;
   // After advance returned early: per watched contact +1 (slip), −1 (stick), 0.
   virtual std::span<const int> roots() const = 0;
+  // Per watched contact, the largest speed |s| [m/s] at which the integrator
+  // sampled its solution between the previous return of advance and this one
+  // (both included); −∞ where it sampled none. The samples are those it takes
+  // anyway (integrate/speed_peaks.hpp): the root functions' evaluations, at
+  // every accepted step's end and where a crossing is located, and with
+  // multirate a fast contact's every sub-step end. On the solution, so never
+  // above its true maximum; below it by at most what the solution curves
+  // between samples. Empty without watched contacts.
+  virtual std::span<const double> peak_speeds() const = 0;
   virtual SolverStats stats() const = 0;
   // Method, order, tolerances or fixed step: how the result was obtained.
   virtual nlohmann::json description() const = 0;

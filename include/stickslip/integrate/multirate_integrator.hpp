@@ -47,6 +47,7 @@
 #include "stickslip/integrate/contact_substeps.hpp"
 #include "stickslip/integrate/integrator.hpp"
 #include "stickslip/integrate/lattice_stage_solver.hpp"
+#include "stickslip/integrate/speed_peaks.hpp"
 
 namespace stickslip {
 
@@ -58,6 +59,7 @@ class MultirateIntegrator final : public Integrator {
 
   double advance(double t_out, std::span<double> y) override;
   std::span<const int> roots() const override { return roots_; }
+  std::span<const double> peak_speeds() const override { return peaks_.peaks(); }
   SolverStats stats() const override;
   nlohmann::json description() const override;
 
@@ -72,6 +74,7 @@ class MultirateIntegrator final : public Integrator {
   struct Step;  // one accepted coarse step: what outputs and events read
   enum class Attempt { accepted, retry, shrink };
 
+  double advance_to(double t_out, std::span<double> y);
   Attempt attempt(double H);
   void begin_step_derivative();
   void accept(double H);
@@ -81,6 +84,8 @@ class MultirateIntegrator final : public Integrator {
   // false if none.
   bool next_root(double t_from, double t_to, double& t_root);
   void record(double error);
+  // The watched contacts' speeds along the step just accepted (peaks_).
+  void sample_speeds();
 
   const System& system_;
   SolverParams solver_;
@@ -112,6 +117,9 @@ class MultirateIntegrator final : public Integrator {
   std::vector<int> roots_;
   std::vector<int> sign_;  // each watched contact's side at t_reached_: +1 slipping
   double t_reached_;       // the last time advance() returned
+  // Each watched contact's speed at every sub-step end while it is fast, at
+  // the coarse step's end while it is slow, and wherever next_root evaluates it.
+  SpeedPeaks peaks_;
 
   // Scratch.
   std::vector<double> b_, weights_, error_;

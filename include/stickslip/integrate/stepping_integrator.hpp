@@ -24,6 +24,7 @@
 #include "stickslip/integrate/exact_stage_solver.hpp"
 #include "stickslip/integrate/integrator.hpp"
 #include "stickslip/integrate/lattice_stage_solver.hpp"
+#include "stickslip/integrate/speed_peaks.hpp"
 #include "stickslip/integrate/sundials.hpp"
 
 namespace stickslip {
@@ -32,6 +33,7 @@ class SteppingIntegrator : public Integrator {
  public:
   double advance(double t_out, std::span<double> y) final;
   std::span<const int> roots() const final { return roots_; }
+  std::span<const double> peak_speeds() const final { return peaks_.peaks(); }
 
  protected:
   // The return flags of ARKStepEvolve and CVode (equal in both packages).
@@ -89,6 +91,7 @@ class SteppingIntegrator : public Integrator {
   NVectorPtr y_;    // the state handed to and from the package
   NVectorPtr atol_;
   std::vector<int> roots_;
+  SpeedPeaks peaks_;  // sampled in root_fn
   StageStats stage_stats_;
   std::unique_ptr<LatticeStageSolver> lattice_stages_;
   NonlinearSolverPtr stage_solver_;

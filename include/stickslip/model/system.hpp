@@ -169,6 +169,16 @@ class System {
   double energy_residual(double t, std::span<const double> y, std::span<const double> y0) const;
   // Contact i's in-plane velocity: the mean of its sites' (§14).
   std::array<double, 2> contact_velocity(std::size_t i, std::span<const double> y) const;
+  // |s| of contact i, the speed its stick and slip are decided on (§9) [m/s].
+  double contact_speed(std::size_t i, std::span<const double> y) const;
+  // Contact i's in-plane displacement: the mean of its sites' (u_x, u_y) [m].
+  std::array<double, 2> contact_displacement(std::size_t i, std::span<const double> y) const;
+  // |F| of the in-plane force the block exerts on contact i: the springs and
+  // dashpots on its sites' nodes (MODEL.md §3–5), summed over its sites (so
+  // those between two of its sites cancel), from the lattice's accelerations
+  // `acc` (3N values: lattice_accelerations at the state) [N]. The load the
+  // contact's friction holds while it sticks; its own force is contact_force.
+  double contact_load(std::size_t i, std::span<const double> acc) const;
   // a_c of §6 (force per mass) of site j at in-plane velocity s.
   std::array<double, 2> site_acceleration(std::size_t j, std::array<double, 2> s) const;
 

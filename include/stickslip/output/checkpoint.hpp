@@ -3,7 +3,9 @@
 // since the last one. A checkpoint holds what cannot be re-read from the CSV
 // outputs: the time and state, the friction impulse at t_avg, the output row
 // reached, the solver statistics so far, and the case and code it belongs to.
-// Events and traces before it are recovered from events.csv and traces.csv.
+// Events and traces before it are recovered from events.csv and traces.csv;
+// what a recorder cannot recover from its table (a slip under way) it saves
+// in the checkpoint itself (Recorder::save).
 // Written atomically: a kill at any moment leaves the previous one whole.
 
 #include <filesystem>
@@ -27,6 +29,7 @@ struct Checkpoint {
   nlohmann::json case_json;          // the resolved case (without paths)
   std::string git_commit;            // the version that wrote it
   std::vector<RunSegment> segments;  // the run's attempts up to it, the writer's last
+  nlohmann::json recorders = nlohmann::json::object();  // what they saved, by recorder
 };
 
 inline constexpr const char* kCheckpointFile = "checkpoint.bin";
