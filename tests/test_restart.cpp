@@ -1,6 +1,7 @@
 // Checkpoint and restart through the real binary: a run stopped by SIGTERM and
 // restarted agrees with an uninterrupted one, without gaps or duplicated rows,
-// in either output format; a restart with another case is refused.
+// in either output format; a restart with another case is refused, naming
+// what differs.
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -14,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "sandbox.hpp"
 #include "stickslip/analysis/compare.hpp"
 #include "stickslip/case/reader.hpp"
 #include "stickslip/output/checkpoint.hpp"
@@ -341,4 +343,30 @@ TEST_CASE("solver statistics written before krylov_iterations existed read back 
   CHECK(s.krylov_iterations == 22723);
   CHECK(s.steps == 591);
   CHECK(nlohmann::json(s).at("krylov_iterations") == 22723);
+}
+
+TEST_CASE("a refused restart names the keys that differ and changes nothing", "[restart]") {
+  test::Sandbox box("stickslip_restart_refused_");
+  const fs::path file = box.write("tiny.toml", kTiny);
+  interrupt(read_case(file), {.out_dir = box.work / "run", .quiet = true});
+  const auto before = box.snapshot();
+  const auto r = box.run({"run", "tiny.toml", "--restart", "run", "--set", "drive.velocity=2e-3",
+                          "--set", "run.t_end=4e-5", "--quiet"});
+  INFO(r.err);
+  CHECK(r.code == 2);
+  CHECK(test::lines(r.err) == 1);
+  CHECK_THAT(r.err, Catch::StartsWith("error: run/checkpoint.bin: written for a different case"));
+  CHECK_THAT(r.err, Catch::Contains("drive.velocity: 0.001 in the checkpoint, 0.002 in the case"));
+  CHECK_THAT(r.err, Catch::Contains("run.t_end: 2e-05 in the checkpoint, 4e-05 in the case"));
+  CHECK(box.snapshot() == before);
+
+  // A key the checkpoint's case lacks (written before it existed) meant its
+  // default: named with that value.
+  Checkpoint older = read_checkpoint(box.work / "run");
+  older.case_json["interface"].erase("patch");
+  write_checkpoint(box.work / "run", older);
+  const auto patch =
+      box.run({"run", "tiny.toml", "--restart", "run", "--set", "interface.patch=2", "--quiet"});
+  CHECK(patch.code == 2);
+  CHECK_THAT(patch.err, Catch::Contains("interface.patch: 1 in the checkpoint, 2 in the case"));
 }

@@ -209,9 +209,10 @@ std::optional<Checkpoint> open_output_dir(const Case& c, const RunOptions& optio
   if (finished)
     throw OutputError(dir.string() + ": the run there has finished (summary.json exists)");
   Checkpoint resume = read_checkpoint(dir);
-  if (!same_case(resume.case_json, c))
-    throw OutputError((dir / kCheckpointFile).string() +
-                      ": written for a different case; restart with the case file it came from");
+  if (const auto differences = case_differences(resume.case_json, c); !differences.empty())
+    throw OutputError((dir / kCheckpointFile).string() + ": written for a different case (" +
+                      describe(differences, "checkpoint") +
+                      "); restart with the case file it came from");
   if (resume.git_commit != kGitCommit && !options.any_version)
     throw OutputError((dir / kCheckpointFile).string() + ": written by code version " +
                       resume.git_commit + ", this is " + kGitCommit +

@@ -154,8 +154,11 @@ PointState point_state(const SweepPoint& point, const fs::path& dir, std::string
         return PointState::stale;
       }
   }
-  if (!same_case(summary->case_json, point.c)) {
-    if (why) *why = "computed for a different case (the base case or [set] changed)";
+  if (const auto differences = case_differences(summary->case_json, point.c);
+      !differences.empty()) {
+    if (why)
+      *why = "computed for a different case (the base case or [set] changed: " +
+             describe(differences, "point's summary.json") + ")";
     return PointState::stale;
   }
   return PointState::finished;
