@@ -1,7 +1,8 @@
 // Checkpoint and restart through the real binary: a run stopped by SIGTERM and
 // restarted agrees with an uninterrupted one, without gaps or duplicated rows,
 // in either output format; a restart with another case is refused, naming
-// what differs.
+// what differs; the command an interrupted run prints continues it from any
+// directory.
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -96,7 +97,7 @@ TEST_CASE("a run stopped by SIGTERM and restarted agrees with an uninterrupted o
   REQUIRE(stopped == 143);
   std::ifstream note(box / "stop.txt");
   const std::string message((std::istreambuf_iterator<char>(note)), {});
-  CHECK_THAT(message, Catch::Contains("--restart part"));
+  CHECK_THAT(message, Catch::Contains("--restart " + (box / "part").string()));
   CHECK_FALSE(fs::exists(box / "part" / "summary.json"));
 
   // A different case may not continue it.
@@ -345,6 +346,99 @@ TEST_CASE("solver statistics written before krylov_iterations existed read back 
   CHECK(nlohmann::json(s).at("krylov_iterations") == 22723);
 }
 
+namespace {
+
+// The command after "continue with: " in a run's messages ("" if none).
+std::string continue_line(const std::string& messages) {
+  const std::string tag = "continue with: ";
+  const auto at = messages.find(tag);
+  if (at == std::string::npos) return "";
+  const auto from = at + tag.size();
+  return messages.substr(from, messages.find('\n', from) - from);
+}
+
+// Runs `command` with /bin/sh in `cwd`; its stderr in `err`.
+int shell_in(const fs::path& cwd, const std::string& command, const fs::path& err) {
+  return shell("cd " + test::quote(cwd.string()) + " && " + command + " >/dev/null 2>" +
+               test::quote(err.string()));
+}
+
+// `command` started in the background in `cwd`, stopped by SIGINT to it alone
+// once `file` (relative to `cwd`) is newer than the marker made just before
+// (so an earlier checkpoint does not count); its exit code.
+int interrupt_when_written(const fs::path& cwd, const std::string& command, const std::string& file,
+                           const fs::path& err) {
+  return shell("cd " + test::quote(cwd.string()) + " && touch .marker && sleep 0.01 && (" +
+               command + " >/dev/null 2>" + test::quote(err.string()) +
+               " & pid=$!; while kill -0 $pid 2>/dev/null && [ ! " + test::quote(file) +
+               " -nt .marker ]; do sleep 0.02; done; kill -INT $pid; wait $pid)");
+}
+
+}  // namespace
+
+TEST_CASE("the command an interrupted run prints continues it as given from any directory",
+          "[slow][restart]") {
+  // Paths with spaces, the program by a relative path, a --set that the
+  // checkpoint's case holds (without it a restart is refused), --threads, and
+  // --any-version once a checkpoint of another code version needs it.
+  const test::TempDir tmp("stickslip_test_continue_line");
+  const fs::path here = tmp.path / "runs here", elsewhere = tmp.path / "else where";
+  fs::create_directories(here);
+  fs::create_directories(elsewhere);
+  std::ofstream(here / "my case.toml") << kCase;
+  const std::string program = fs::relative(STICKSLIP_EXE, here).string();
+  REQUIRE(program.find('/') != std::string::npos);
+  const std::string first = test::quote(program) +
+                            " run 'my case.toml' --out 'part dir' --set run.average_from=6e-4"
+                            " --threads 1 --quiet";
+  REQUIRE(interrupt_when_written(here, first, "part dir/checkpoint.bin", tmp.path / "stop1.txt") ==
+          130);
+  const std::string stop1 = test::slurp(tmp.path / "stop1.txt");
+  INFO(stop1);
+  const std::string line1 = continue_line(stop1);
+  REQUIRE_FALSE(line1.empty());
+  CHECK_THAT(line1, !Catch::Contains("--overwrite") && !Catch::Contains("--out"));
+
+  // Started again as at first: refused, pointing at --restart and the same
+  // command, and nothing in the directory changes.
+  const auto checkpoint_before = test::slurp(here / "part dir" / kCheckpointFile);
+  const auto friction_before = test::slurp(here / "part dir" / "friction.csv");
+  REQUIRE(shell_in(here, first, tmp.path / "again.txt") == 2);
+  const std::string again = test::slurp(tmp.path / "again.txt");
+  CHECK_THAT(again, Catch::Contains("interrupted run") && Catch::Contains("--restart"));
+  CHECK(continue_line(again) == line1);
+  CHECK(test::slurp(here / "part dir" / kCheckpointFile) == checkpoint_before);
+  CHECK(test::slurp(here / "part dir" / "friction.csv") == friction_before);
+
+  // The line, from another directory, continues the run; stopped again, its
+  // own line keeps --any-version, which the checkpoint needs once more.
+  auto stamp_other_version = [&] {
+    Checkpoint c = read_checkpoint(here / "part dir");
+    c.git_commit = "0000000";
+    write_checkpoint(here / "part dir", c);
+  };
+  stamp_other_version();
+  REQUIRE(shell_in(elsewhere, line1, tmp.path / "refused.txt") == 2);  // another version's
+  CHECK_THAT(test::slurp(tmp.path / "refused.txt"), Catch::Contains("--any-version"));
+  REQUIRE(interrupt_when_written(elsewhere, line1 + " --any-version",
+                                 (here / "part dir" / kCheckpointFile).string(),
+                                 tmp.path / "stop2.txt") == 130);
+  const std::string line2 = continue_line(test::slurp(tmp.path / "stop2.txt"));
+  INFO(test::slurp(tmp.path / "stop2.txt"));
+  REQUIRE_FALSE(line2.empty());
+  stamp_other_version();
+  REQUIRE(shell_in(elsewhere, line2, tmp.path / "end.txt") == 0);
+
+  const auto summary = read_summary(here / "part dir");
+  REQUIRE(summary);
+  CHECK(summary->case_json["run"]["average_from"] == 6e-4);  // the --set, carried
+  CHECK(summary->solver["threads"] == 1);
+  CHECK(summary->segments.size() == 3);
+  const auto t = times(here / "part dir", "friction");
+  REQUIRE(t.size() == 1501);  // every output time once: no gap, no duplicate
+  for (std::size_t k = 0; k < t.size(); ++k) CHECK(t[k] == Approx(1e-6 * double(k)));
+}
+
 TEST_CASE("a refused restart names the keys that differ and changes nothing", "[restart]") {
   test::Sandbox box("stickslip_restart_refused_");
   const fs::path file = box.write("tiny.toml", kTiny);
@@ -369,4 +463,38 @@ TEST_CASE("a refused restart names the keys that differ and changes nothing", "[
       box.run({"run", "tiny.toml", "--restart", "run", "--set", "interface.patch=2", "--quiet"});
   CHECK(patch.code == 2);
   CHECK_THAT(patch.err, Catch::Contains("interface.patch: 1 in the checkpoint, 2 in the case"));
+}
+
+TEST_CASE("a fresh start in a directory holding an interrupted run points to --restart",
+          "[restart][cli]") {
+  test::Sandbox box("stickslip_resumable_");
+  const fs::path file = box.write("my case.toml", kTiny);
+  // Stopped with a --set the restart must repeat.
+  interrupt(read_case(file, {"run.average_from=1.2e-5"}),
+            {.out_dir = box.work / "run dir", .quiet = true});
+  const auto before = box.snapshot();
+  const auto r = box.run(
+      {"run", "my case.toml", "--out", "run dir", "--set", "run.average_from=1.2e-5", "--quiet"});
+  INFO(r.err);
+  CHECK(r.code == 2);
+  CHECK_THAT(r.err, Catch::StartsWith("error: run dir: holds an interrupted run of this case"));
+  CHECK_THAT(r.err, Catch::Contains("--restart"));
+  CHECK(r.out.empty());
+  CHECK(box.snapshot() == before);
+  const std::string line = continue_line(r.err);
+  REQUIRE_FALSE(line.empty());
+  // As printed, from another directory.
+  fs::create_directories(box.root / "elsewhere");
+  REQUIRE(shell_in(box.root / "elsewhere", line, box.root / "continued.txt") == 0);
+  const auto summary = read_summary(box.work / "run dir");
+  REQUIRE(summary);
+  CHECK(summary->average_from == 1.2e-5);
+  CHECK(times(box.work / "run dir", "friction").size() == 21);
+
+  // A checkpoint of another case is no run this case continues: --overwrite, as ever.
+  interrupt(read_case(file), {.out_dir = box.work / "other", .quiet = true});
+  const auto other =
+      box.run({"run", "my case.toml", "--out", "other", "--set", "drive.velocity=2e-3", "--quiet"});
+  CHECK(other.code == 2);
+  CHECK_THAT(other.err, Catch::Contains("--overwrite") && !Catch::Contains("--restart"));
 }

@@ -189,11 +189,52 @@ std::unique_ptr<const System> make_system(const Case& c) {
   return std::make_unique<const System>(c, place_contacts(c.lattice, c.interface));
 }
 
+std::string seconds(double t) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.9g s", t);
+  return text;
+}
+
+// The checkpoint in `dir` if `c` continues it: one of its case. Anything else
+// (none, damaged, another case) is no run this case continues.
+std::optional<Checkpoint> checkpoint_continued_by(const Case& c, const std::filesystem::path& dir) {
+  if (!std::filesystem::exists(dir / kCheckpointFile)) return std::nullopt;
+  try {
+    Checkpoint checkpoint = read_checkpoint(dir);
+    if (!same_case(checkpoint.case_json, c)) return std::nullopt;
+    return checkpoint;
+  } catch (const OutputError&) {
+    return std::nullopt;
+  }
+}
+
+// A fresh start in a directory holding a run of this case that a restart
+// continues: say so, rather than offer --overwrite, which would throw it away.
+void refuse_resumable(const Case& c, const std::filesystem::path& dir) {
+  const auto checkpoint = checkpoint_continued_by(c, dir);
+  if (!checkpoint) return;
+  try {
+    if (read_summary(dir)) return;  // a finished run is results, as ever
+  } catch (const OutputError&) {
+    return;  // not a summary this code writes: the usual refusal names it
+  }
+  std::string what = dir.string() + ": holds an interrupted run of this case (" +
+                     std::string(kCheckpointFile) + " at t = " + seconds(checkpoint->t) +
+                     "): continue it with --restart (from Python, restart=True), or pass "
+                     "--overwrite to start afresh";
+  const bool other_version = checkpoint->git_commit != kGitCommit;
+  if (other_version)
+    what += " (its checkpoint is code version " + checkpoint->git_commit +
+            "'s: --any-version continues it)";
+  throw ResumableRunError(what, other_version);
+}
+
 // A restart continues from the checkpoint: same case, same code (or any
 // code, when asked); every recorder cuts its output back to the checkpoint's time.
 std::optional<Checkpoint> open_output_dir(const Case& c, const RunOptions& options) {
   const auto& dir = options.out_dir;
   if (!options.restart) {
+    if (!options.overwrite) refuse_resumable(c, dir);
     prepare_output_dir(dir, options.overwrite, result_files());
     return std::nullopt;
   }

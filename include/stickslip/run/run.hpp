@@ -10,6 +10,7 @@
 #include "stickslip/integrate/integrator.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/output/summary.hpp"
+#include "stickslip/output/writers.hpp"
 
 namespace stickslip {
 
@@ -21,6 +22,17 @@ struct RunOptions {
   // Continue a checkpoint written by another code version (summary.json then
   // lists each attempt's version): for changes that leave the numbers alone.
   bool any_version = false;
+};
+
+// A run started afresh (no restart, no overwrite) in an output directory that
+// holds a run of this case stopped by a signal. A restart is what the user
+// wants, not --overwrite; the command line prints the command.
+class ResumableRunError : public OutputError {
+ public:
+  ResumableRunError(const std::string& what, bool needs_any_version)
+      : OutputError(what), needs_any_version(needs_any_version) {}
+  // The checkpoint is another code version's: the restart needs --any-version.
+  bool needs_any_version;
 };
 
 // Thrown when SIGINT or SIGTERM stopped a run, after its final checkpoint was
