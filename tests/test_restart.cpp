@@ -2,7 +2,8 @@
 // restarted agrees with an uninterrupted one, without gaps or duplicated rows,
 // in either output format; a restart with another case is refused, naming
 // what differs; the command an interrupted run prints continues it from any
-// directory.
+// directory; a finished run that kept its final state continues to a later
+// t_end as if it had run there straight.
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -497,4 +498,136 @@ TEST_CASE("a fresh start in a directory holding an interrupted run points to --r
       box.run({"run", "my case.toml", "--out", "other", "--set", "drive.velocity=2e-3", "--quiet"});
   CHECK(other.code == 2);
   CHECK_THAT(other.err, Catch::Contains("--overwrite") && !Catch::Contains("--restart"));
+}
+
+TEST_CASE("a finished run that kept its final state continues to a later t_end only",
+          "[restart][cli]") {
+  const std::string format = GENERATE("csv", "hdf5");
+  INFO("[output] format = " << format);
+  test::Sandbox box("stickslip_extend_");
+  // t_end = 2e-5; the first run ends at 1.55e-5, off the 1e-6 output grid.
+  box.write("tiny.toml",
+            std::string(kTiny) + "[output]\nfinal_state = true\nformat = \"" + format + "\"\n");
+  auto run = [&](std::vector<std::string> args) {
+    args.insert(args.begin(), {"run", "tiny.toml", "--quiet"});
+    return box.run(args);
+  };
+  REQUIRE(run({"--out", "straight"}).code == 0);
+  REQUIRE(run({"--out", "longer", "--set", "run.t_end=1.55e-5"}).code == 0);
+  CHECK(fs::exists(box.work / "longer" / kCheckpointFile));  // the final state, kept
+  CHECK(read_checkpoint(box.work / "longer").t == 1.55e-5);
+
+  // Refused, changing nothing: a start afresh (it points to --restart), an
+  // earlier t_end than the run reached, the same t_end (nothing to do).
+  const auto before = box.snapshot();
+  const auto afresh = run({"--out", "longer"});
+  CHECK(afresh.code == 2);
+  CHECK_THAT(afresh.err, Catch::Contains("finished at t = 1.55e-05 s") &&
+                             Catch::Contains("--restart") && Catch::Contains("continue with: "));
+  const auto earlier = run({"--restart", "longer", "--set", "run.t_end=1.2e-5"});
+  CHECK(earlier.code == 2);
+  CHECK(test::lines(earlier.err) == 1);
+  CHECK_THAT(earlier.err, Catch::Contains("longer/checkpoint.bin: run.t_end = 1.2e-05 s is "
+                                          "before t = 1.55e-05 s"));
+  const auto same = run({"--restart", "longer", "--set", "run.t_end=1.55e-5"});
+  CHECK(same.code == 2);
+  CHECK_THAT(same.err, Catch::Contains("has finished") && Catch::Contains("run.t_end"));
+  CHECK(box.snapshot() == before);
+
+  // A stop between the final checkpoint and summary.json (written in that
+  // order) leaves a run that a restart with the same t_end finishes: nothing
+  // left to integrate, no row written twice.
+  fs::copy(box.work / "longer", box.work / "cut", fs::copy_options::recursive);
+  fs::remove(box.work / "cut" / kSummaryFile);
+  REQUIRE(run({"--restart", "cut", "--set", "run.t_end=1.55e-5"}).code == 0);
+  CHECK(times(box.work / "cut", "friction") == times(box.work / "longer", "friction"));
+  const auto cut = read_summary(box.work / "cut");
+  REQUIRE(cut);
+  CHECK(cut->mu == read_summary(box.work / "longer")->mu);
+
+  // The case file's t_end, 2e-5, the only change: continued.
+  const auto extended = run({"--restart", "longer"});
+  INFO(extended.err);
+  REQUIRE(extended.code == 0);
+  const auto summary = read_summary(box.work / "longer");
+  REQUIRE(summary);
+  CHECK(summary->t_end == 2e-5);
+  REQUIRE(summary->segments.size() == 2);
+  CHECK(summary->segments[1].from == 1.55e-5);
+  // Every output time of the straight run, and the first run's last row at
+  // its t_end, off the grid, kept.
+  auto expected = times(box.work / "straight", "friction");
+  expected.insert(expected.begin() + 16, 1.55e-5);
+  const auto rows = times(box.work / "longer", "friction");
+  REQUIRE(rows.size() == expected.size());
+  for (std::size_t k = 0; k < rows.size(); ++k) CHECK(rows[k] == Approx(expected[k]));
+  CHECK(read_run_columns(box.work / "longer", "final_state").at(0).second.front() == 2e-5);
+  const auto straight = read_summary(box.work / "straight");
+  REQUIRE(straight);
+  CHECK(summary->mu == Approx(straight->mu).epsilon(1e-5));
+
+  // Without its final state a finished run cannot continue: said so, with the key.
+  REQUIRE(run({"--out", "plain", "--set", "run.t_end=1.55e-5", "--set", "output.final_state=false"})
+              .code == 0);
+  CHECK_FALSE(fs::exists(box.work / "plain" / kCheckpointFile));
+  const auto plain_before = box.snapshot();
+  const auto plain = run({"--restart", "plain", "--set", "output.final_state=false"});
+  CHECK(plain.code == 2);
+  CHECK(test::lines(plain.err) == 1);
+  CHECK_THAT(plain.err, Catch::Contains("without keeping its final state") &&
+                            Catch::Contains("[output] final_state = true"));
+  CHECK(box.snapshot() == plain_before);
+}
+
+TEST_CASE("a run continued to a later t_end agrees with one run there straight",
+          "[slow][restart]") {
+  // kCase to t_end = 1 ms, its final state kept, then continued to 1.5 ms (a
+  // --set, or a case file whose only change is t_end), against a run to
+  // 1.5 ms: the standard of an interrupted run's restart above. dirk at
+  // rtol 1e-7 with tolerances that follow it, as fast as imex is slow.
+  const test::TempDir tmp("stickslip_test_extend");
+  const fs::path& box = tmp.path;
+  const std::string common = std::string(kCase) + "final_state = true\n";
+  auto with_t_end = [&](const std::string& t_end) {
+    std::string text = common;
+    text.replace(text.find("t_end = 1.5e-3"), 14, "t_end = " + t_end);
+    return text;
+  };
+  std::ofstream(box / "short.toml") << with_t_end("1e-3");
+  std::ofstream(box / "long.toml") << with_t_end("1.5e-3");
+  const std::string exe = STICKSLIP_EXE;
+  const std::string dirk =
+      " --set 'solver.method=\"dirk\"' --set solver.atol_velocity=4.75e-12"
+      " --set solver.atol_displacement=1.95e-14 --quiet >/dev/null";
+  auto run = [&](const std::string& args) {
+    return shell("cd " + box.string() + " && " + exe + " run " + args + dirk);
+  };
+  REQUIRE(run("long.toml --out straight") == 0);
+  REQUIRE(run("short.toml --out by_set") == 0);
+  REQUIRE(run("short.toml --restart by_set --set run.t_end=1.5e-3") == 0);
+  REQUIRE(run("short.toml --out by_file") == 0);
+  REQUIRE(run("long.toml --restart by_file") == 0);
+
+  const auto straight_t = times(box / "straight", "friction");
+  REQUIRE(straight_t.size() == 1501);
+  for (const char* extended : {"by_set", "by_file"}) {
+    INFO(extended);
+    const auto summary = read_summary(box / extended);
+    REQUIRE(summary);
+    CHECK(summary->t_end == 1.5e-3);
+    REQUIRE(summary->segments.size() == 2);
+    CHECK(summary->segments[1].from == 1e-3);
+    CHECK(times(box / extended, "friction") == straight_t);  // no gap, no duplicate
+    CHECK(times(box / extended, "traces") == straight_t);
+    const CompareResult r = compare_runs(box / "straight", box / extended, 2e-2);
+    INFO(to_json(r).dump(1));
+    CHECK(r.pass());
+    CHECK(r.mu_rel_diff < 1e-5);
+    for (const auto& e : r.events) {
+      CHECK(e.unmatched_a == 0);
+      CHECK(e.unmatched_b == 0);
+      CHECK(e.max_dt < 1e-7);  // 1/30 of a slip's duration
+    }
+    CHECK(read_run_columns(box / extended, "final_state").at(0).second.front() == 1.5e-3);
+  }
 }

@@ -286,7 +286,8 @@ int main(int argc, char** argv) {
   auto* out_option = run->add_option(
       "--out", r.out, "output directory (default: [output] dir, else out/<case name>)");
   run->add_option("--restart", r.restart,
-                  "continue the interrupted run in this output directory from its checkpoint")
+                  "continue the interrupted run in this output directory from its checkpoint, "
+                  "or a finished one that kept its final state to a later run.t_end")
       ->excludes(out_option);
   run->add_option("--set", r.sets, "override a case value: section.key=value (repeatable)");
   run->add_flag("--overwrite", r.overwrite,

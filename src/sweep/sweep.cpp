@@ -346,9 +346,11 @@ SweepOutcome run_sweep(const Sweep& sweep, const std::vector<SweepPoint>& points
   while (next < todo.size() || !running.empty()) {
     while (!g_sweep_signal && next < todo.size() &&
            running.size() < static_cast<std::size_t>(std::max(1, options.jobs))) {
-      const auto& p = points[todo[next]];
-      // A point stopped earlier continues from its checkpoint.
-      start(todo[next++], fs::exists(options.out_dir / p.name / kCheckpointFile));
+      const fs::path dir = options.out_dir / points[todo[next]].name;
+      // A point stopped earlier continues from its checkpoint; one with a
+      // summary (stale, to recompute) starts afresh, even if it kept its
+      // final state.
+      start(todo[next++], fs::exists(dir / kCheckpointFile) && !fs::exists(dir / kSummaryFile));
     }
     // SIGINT or SIGTERM sent to the sweep alone (a notebook's interrupt, kill,
     // a scheduler before its time limit) is passed on to the running points,

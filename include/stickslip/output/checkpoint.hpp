@@ -5,6 +5,8 @@
 // reached, the solver statistics so far, and the case and code it belongs to.
 // Events and traces before it are recovered from events.csv and traces.csv.
 // Written atomically: a kill at any moment leaves the previous one whole.
+// A finished run whose case sets [output] final_state keeps its last, at
+// t_end, from which a restart continues it to a later t_end.
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
