@@ -1,6 +1,9 @@
 // Checkpoint and restart through the real binary: a run stopped by SIGTERM and
 // restarted agrees with an uninterrupted one, without gaps or duplicated rows,
-// in either output format; a restart with another case is refused.
+// in either output format; a restart with another case is refused, naming
+// what differs; the command an interrupted run prints continues it from any
+// directory; a finished run that kept its final state continues to a later
+// t_end as if it had run there straight.
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -14,6 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "sandbox.hpp"
 #include "stickslip/analysis/compare.hpp"
 #include "stickslip/case/reader.hpp"
 #include "stickslip/output/checkpoint.hpp"
@@ -94,7 +98,7 @@ TEST_CASE("a run stopped by SIGTERM and restarted agrees with an uninterrupted o
   REQUIRE(stopped == 143);
   std::ifstream note(box / "stop.txt");
   const std::string message((std::istreambuf_iterator<char>(note)), {});
-  CHECK_THAT(message, Catch::Contains("--restart part"));
+  CHECK_THAT(message, Catch::Contains("--restart " + (box / "part").string()));
   CHECK_FALSE(fs::exists(box / "part" / "summary.json"));
 
   // A different case may not continue it.
@@ -341,4 +345,289 @@ TEST_CASE("solver statistics written before krylov_iterations existed read back 
   CHECK(s.krylov_iterations == 22723);
   CHECK(s.steps == 591);
   CHECK(nlohmann::json(s).at("krylov_iterations") == 22723);
+}
+
+namespace {
+
+// The command after "continue with: " in a run's messages ("" if none).
+std::string continue_line(const std::string& messages) {
+  const std::string tag = "continue with: ";
+  const auto at = messages.find(tag);
+  if (at == std::string::npos) return "";
+  const auto from = at + tag.size();
+  return messages.substr(from, messages.find('\n', from) - from);
+}
+
+// Runs `command` with /bin/sh in `cwd`; its stderr in `err`.
+int shell_in(const fs::path& cwd, const std::string& command, const fs::path& err) {
+  return shell("cd " + test::quote(cwd.string()) + " && " + command + " >/dev/null 2>" +
+               test::quote(err.string()));
+}
+
+// `command` started in the background in `cwd`, stopped by SIGINT to it alone
+// once `file` (relative to `cwd`) is newer than the marker made just before
+// (so an earlier checkpoint does not count); its exit code.
+int interrupt_when_written(const fs::path& cwd, const std::string& command, const std::string& file,
+                           const fs::path& err) {
+  return shell("cd " + test::quote(cwd.string()) + " && touch .marker && sleep 0.01 && (" +
+               command + " >/dev/null 2>" + test::quote(err.string()) +
+               " & pid=$!; while kill -0 $pid 2>/dev/null && [ ! " + test::quote(file) +
+               " -nt .marker ]; do sleep 0.02; done; kill -INT $pid; wait $pid)");
+}
+
+}  // namespace
+
+TEST_CASE("the command an interrupted run prints continues it as given from any directory",
+          "[slow][restart]") {
+  // Paths with spaces, the program by a relative path, a --set that the
+  // checkpoint's case holds (without it a restart is refused), --threads, and
+  // --any-version once a checkpoint of another code version needs it.
+  const test::TempDir tmp("stickslip_test_continue_line");
+  const fs::path here = tmp.path / "runs here", elsewhere = tmp.path / "else where";
+  fs::create_directories(here);
+  fs::create_directories(elsewhere);
+  std::ofstream(here / "my case.toml") << kCase;
+  const std::string program = fs::relative(STICKSLIP_EXE, here).string();
+  REQUIRE(program.find('/') != std::string::npos);
+  const std::string first = test::quote(program) +
+                            " run 'my case.toml' --out 'part dir' --set run.average_from=6e-4"
+                            " --threads 1 --quiet";
+  REQUIRE(interrupt_when_written(here, first, "part dir/checkpoint.bin", tmp.path / "stop1.txt") ==
+          130);
+  const std::string stop1 = test::slurp(tmp.path / "stop1.txt");
+  INFO(stop1);
+  const std::string line1 = continue_line(stop1);
+  REQUIRE_FALSE(line1.empty());
+  CHECK_THAT(line1, !Catch::Contains("--overwrite") && !Catch::Contains("--out"));
+
+  // Started again as at first: refused, pointing at --restart and the same
+  // command, and nothing in the directory changes.
+  const auto checkpoint_before = test::slurp(here / "part dir" / kCheckpointFile);
+  const auto friction_before = test::slurp(here / "part dir" / "friction.csv");
+  REQUIRE(shell_in(here, first, tmp.path / "again.txt") == 2);
+  const std::string again = test::slurp(tmp.path / "again.txt");
+  CHECK_THAT(again, Catch::Contains("interrupted run") && Catch::Contains("--restart"));
+  CHECK(continue_line(again) == line1);
+  CHECK(test::slurp(here / "part dir" / kCheckpointFile) == checkpoint_before);
+  CHECK(test::slurp(here / "part dir" / "friction.csv") == friction_before);
+
+  // The line, from another directory, continues the run; stopped again, its
+  // own line keeps --any-version, which the checkpoint needs once more.
+  auto stamp_other_version = [&] {
+    Checkpoint c = read_checkpoint(here / "part dir");
+    c.git_commit = "0000000";
+    write_checkpoint(here / "part dir", c);
+  };
+  stamp_other_version();
+  REQUIRE(shell_in(elsewhere, line1, tmp.path / "refused.txt") == 2);  // another version's
+  CHECK_THAT(test::slurp(tmp.path / "refused.txt"), Catch::Contains("--any-version"));
+  REQUIRE(interrupt_when_written(elsewhere, line1 + " --any-version",
+                                 (here / "part dir" / kCheckpointFile).string(),
+                                 tmp.path / "stop2.txt") == 130);
+  const std::string line2 = continue_line(test::slurp(tmp.path / "stop2.txt"));
+  INFO(test::slurp(tmp.path / "stop2.txt"));
+  REQUIRE_FALSE(line2.empty());
+  stamp_other_version();
+  REQUIRE(shell_in(elsewhere, line2, tmp.path / "end.txt") == 0);
+
+  const auto summary = read_summary(here / "part dir");
+  REQUIRE(summary);
+  CHECK(summary->case_json["run"]["average_from"] == 6e-4);  // the --set, carried
+  CHECK(summary->solver["threads"] == 1);
+  CHECK(summary->segments.size() == 3);
+  const auto t = times(here / "part dir", "friction");
+  REQUIRE(t.size() == 1501);  // every output time once: no gap, no duplicate
+  for (std::size_t k = 0; k < t.size(); ++k) CHECK(t[k] == Approx(1e-6 * double(k)));
+}
+
+TEST_CASE("a refused restart names the keys that differ and changes nothing", "[restart]") {
+  test::Sandbox box("stickslip_restart_refused_");
+  const fs::path file = box.write("tiny.toml", kTiny);
+  interrupt(read_case(file), {.out_dir = box.work / "run", .quiet = true});
+  const auto before = box.snapshot();
+  const auto r = box.run({"run", "tiny.toml", "--restart", "run", "--set", "drive.velocity=2e-3",
+                          "--set", "run.t_end=4e-5", "--quiet"});
+  INFO(r.err);
+  CHECK(r.code == 2);
+  CHECK(test::lines(r.err) == 1);
+  CHECK_THAT(r.err, Catch::StartsWith("error: run/checkpoint.bin: written for a different case"));
+  CHECK_THAT(r.err, Catch::Contains("drive.velocity: 0.001 in the checkpoint, 0.002 in the case"));
+  CHECK_THAT(r.err, Catch::Contains("run.t_end: 2e-05 in the checkpoint, 4e-05 in the case"));
+  CHECK(box.snapshot() == before);
+
+  // A key the checkpoint's case lacks (written before it existed) meant its
+  // default: named with that value.
+  Checkpoint older = read_checkpoint(box.work / "run");
+  older.case_json["interface"].erase("patch");
+  write_checkpoint(box.work / "run", older);
+  const auto patch =
+      box.run({"run", "tiny.toml", "--restart", "run", "--set", "interface.patch=2", "--quiet"});
+  CHECK(patch.code == 2);
+  CHECK_THAT(patch.err, Catch::Contains("interface.patch: 1 in the checkpoint, 2 in the case"));
+}
+
+TEST_CASE("a fresh start in a directory holding an interrupted run points to --restart",
+          "[restart][cli]") {
+  test::Sandbox box("stickslip_resumable_");
+  const fs::path file = box.write("my case.toml", kTiny);
+  // Stopped with a --set the restart must repeat.
+  interrupt(read_case(file, {"run.average_from=1.2e-5"}),
+            {.out_dir = box.work / "run dir", .quiet = true});
+  const auto before = box.snapshot();
+  const auto r = box.run(
+      {"run", "my case.toml", "--out", "run dir", "--set", "run.average_from=1.2e-5", "--quiet"});
+  INFO(r.err);
+  CHECK(r.code == 2);
+  CHECK_THAT(r.err, Catch::StartsWith("error: run dir: holds an interrupted run of this case"));
+  CHECK_THAT(r.err, Catch::Contains("--restart"));
+  CHECK(r.out.empty());
+  CHECK(box.snapshot() == before);
+  const std::string line = continue_line(r.err);
+  REQUIRE_FALSE(line.empty());
+  // As printed, from another directory.
+  fs::create_directories(box.root / "elsewhere");
+  REQUIRE(shell_in(box.root / "elsewhere", line, box.root / "continued.txt") == 0);
+  const auto summary = read_summary(box.work / "run dir");
+  REQUIRE(summary);
+  CHECK(summary->average_from == 1.2e-5);
+  CHECK(times(box.work / "run dir", "friction").size() == 21);
+
+  // A checkpoint of another case is no run this case continues: --overwrite, as ever.
+  interrupt(read_case(file), {.out_dir = box.work / "other", .quiet = true});
+  const auto other =
+      box.run({"run", "my case.toml", "--out", "other", "--set", "drive.velocity=2e-3", "--quiet"});
+  CHECK(other.code == 2);
+  CHECK_THAT(other.err, Catch::Contains("--overwrite") && !Catch::Contains("--restart"));
+}
+
+TEST_CASE("a finished run that kept its final state continues to a later t_end only",
+          "[restart][cli]") {
+  const std::string format = GENERATE("csv", "hdf5");
+  INFO("[output] format = " << format);
+  test::Sandbox box("stickslip_extend_");
+  // t_end = 2e-5; the first run ends at 1.55e-5, off the 1e-6 output grid.
+  box.write("tiny.toml",
+            std::string(kTiny) + "[output]\nfinal_state = true\nformat = \"" + format + "\"\n");
+  auto run = [&](std::vector<std::string> args) {
+    args.insert(args.begin(), {"run", "tiny.toml", "--quiet"});
+    return box.run(args);
+  };
+  REQUIRE(run({"--out", "straight"}).code == 0);
+  REQUIRE(run({"--out", "longer", "--set", "run.t_end=1.55e-5"}).code == 0);
+  CHECK(fs::exists(box.work / "longer" / kCheckpointFile));  // the final state, kept
+  CHECK(read_checkpoint(box.work / "longer").t == 1.55e-5);
+
+  // Refused, changing nothing: a start afresh (it points to --restart), an
+  // earlier t_end than the run reached, the same t_end (nothing to do).
+  const auto before = box.snapshot();
+  const auto afresh = run({"--out", "longer"});
+  CHECK(afresh.code == 2);
+  CHECK_THAT(afresh.err, Catch::Contains("finished at t = 1.55e-05 s") &&
+                             Catch::Contains("--restart") && Catch::Contains("continue with: "));
+  const auto earlier = run({"--restart", "longer", "--set", "run.t_end=1.2e-5"});
+  CHECK(earlier.code == 2);
+  CHECK(test::lines(earlier.err) == 1);
+  CHECK_THAT(earlier.err, Catch::Contains("longer/checkpoint.bin: run.t_end = 1.2e-05 s is "
+                                          "before t = 1.55e-05 s"));
+  const auto same = run({"--restart", "longer", "--set", "run.t_end=1.55e-5"});
+  CHECK(same.code == 2);
+  CHECK_THAT(same.err, Catch::Contains("has finished") && Catch::Contains("run.t_end"));
+  CHECK(box.snapshot() == before);
+
+  // A stop between the final checkpoint and summary.json (written in that
+  // order) leaves a run that a restart with the same t_end finishes: nothing
+  // left to integrate, no row written twice.
+  fs::copy(box.work / "longer", box.work / "cut", fs::copy_options::recursive);
+  fs::remove(box.work / "cut" / kSummaryFile);
+  REQUIRE(run({"--restart", "cut", "--set", "run.t_end=1.55e-5"}).code == 0);
+  CHECK(times(box.work / "cut", "friction") == times(box.work / "longer", "friction"));
+  const auto cut = read_summary(box.work / "cut");
+  REQUIRE(cut);
+  CHECK(cut->mu == read_summary(box.work / "longer")->mu);
+
+  // The case file's t_end, 2e-5, the only change: continued.
+  const auto extended = run({"--restart", "longer"});
+  INFO(extended.err);
+  REQUIRE(extended.code == 0);
+  const auto summary = read_summary(box.work / "longer");
+  REQUIRE(summary);
+  CHECK(summary->t_end == 2e-5);
+  REQUIRE(summary->segments.size() == 2);
+  CHECK(summary->segments[1].from == 1.55e-5);
+  // Every output time of the straight run, and the first run's last row at
+  // its t_end, off the grid, kept.
+  auto expected = times(box.work / "straight", "friction");
+  expected.insert(expected.begin() + 16, 1.55e-5);
+  const auto rows = times(box.work / "longer", "friction");
+  REQUIRE(rows.size() == expected.size());
+  for (std::size_t k = 0; k < rows.size(); ++k) CHECK(rows[k] == Approx(expected[k]));
+  CHECK(read_run_columns(box.work / "longer", "final_state").at(0).second.front() == 2e-5);
+  const auto straight = read_summary(box.work / "straight");
+  REQUIRE(straight);
+  CHECK(summary->mu == Approx(straight->mu).epsilon(1e-5));
+
+  // Without its final state a finished run cannot continue: said so, with the key.
+  REQUIRE(run({"--out", "plain", "--set", "run.t_end=1.55e-5", "--set", "output.final_state=false"})
+              .code == 0);
+  CHECK_FALSE(fs::exists(box.work / "plain" / kCheckpointFile));
+  const auto plain_before = box.snapshot();
+  const auto plain = run({"--restart", "plain", "--set", "output.final_state=false"});
+  CHECK(plain.code == 2);
+  CHECK(test::lines(plain.err) == 1);
+  CHECK_THAT(plain.err, Catch::Contains("without keeping its final state") &&
+                            Catch::Contains("[output] final_state = true"));
+  CHECK(box.snapshot() == plain_before);
+}
+
+TEST_CASE("a run continued to a later t_end agrees with one run there straight",
+          "[slow][restart]") {
+  // kCase to t_end = 1 ms, its final state kept, then continued to 1.5 ms (a
+  // --set, or a case file whose only change is t_end), against a run to
+  // 1.5 ms: the standard of an interrupted run's restart above. dirk at
+  // rtol 1e-7 with tolerances that follow it, as fast as imex is slow.
+  const test::TempDir tmp("stickslip_test_extend");
+  const fs::path& box = tmp.path;
+  const std::string common = std::string(kCase) + "final_state = true\n";
+  auto with_t_end = [&](const std::string& t_end) {
+    std::string text = common;
+    text.replace(text.find("t_end = 1.5e-3"), 14, "t_end = " + t_end);
+    return text;
+  };
+  std::ofstream(box / "short.toml") << with_t_end("1e-3");
+  std::ofstream(box / "long.toml") << with_t_end("1.5e-3");
+  const std::string exe = STICKSLIP_EXE;
+  const std::string dirk =
+      " --set 'solver.method=\"dirk\"' --set solver.atol_velocity=4.75e-12"
+      " --set solver.atol_displacement=1.95e-14 --quiet >/dev/null";
+  auto run = [&](const std::string& args) {
+    return shell("cd " + box.string() + " && " + exe + " run " + args + dirk);
+  };
+  REQUIRE(run("long.toml --out straight") == 0);
+  REQUIRE(run("short.toml --out by_set") == 0);
+  REQUIRE(run("short.toml --restart by_set --set run.t_end=1.5e-3") == 0);
+  REQUIRE(run("short.toml --out by_file") == 0);
+  REQUIRE(run("long.toml --restart by_file") == 0);
+
+  const auto straight_t = times(box / "straight", "friction");
+  REQUIRE(straight_t.size() == 1501);
+  for (const char* extended : {"by_set", "by_file"}) {
+    INFO(extended);
+    const auto summary = read_summary(box / extended);
+    REQUIRE(summary);
+    CHECK(summary->t_end == 1.5e-3);
+    REQUIRE(summary->segments.size() == 2);
+    CHECK(summary->segments[1].from == 1e-3);
+    CHECK(times(box / extended, "friction") == straight_t);  // no gap, no duplicate
+    CHECK(times(box / extended, "traces") == straight_t);
+    const CompareResult r = compare_runs(box / "straight", box / extended, 2e-2);
+    INFO(to_json(r).dump(1));
+    CHECK(r.pass());
+    CHECK(r.mu_rel_diff < 1e-5);
+    for (const auto& e : r.events) {
+      CHECK(e.unmatched_a == 0);
+      CHECK(e.unmatched_b == 0);
+      CHECK(e.max_dt < 1e-7);  // 1/30 of a slip's duration
+    }
+    CHECK(read_run_columns(box / extended, "final_state").at(0).second.front() == 1.5e-3);
+  }
 }

@@ -494,6 +494,63 @@ interval = 1e-5
             test::lines(slurp(box.work / "whole" / p.path().filename() / "friction.csv")));
 }
 
+TEST_CASE("SIGINT to a sweep alone stops its running points with a checkpoint",
+          "[sweep][restart]") {
+  // What a notebook's "interrupt kernel" does to stickslip.sweep, and `kill
+  // -INT` to the command: the signal reaches the sweep's process only, not
+  // its process group. Two points of the pair under imex at rtol 1e-7 for
+  // 0.1 s of sliding: minutes of computing each, so a point that is not
+  // stopped is still running when the sweep is given up on, 20 s after the
+  // signal (and then stopped with SIGTERM, which the sweep passes on).
+  Sandbox box;
+  box.write("two.toml", R"([lattice]
+nx = 6
+ny = 6
+nz = 4
+[interface]
+contacts = [ { site = [1, 2], v_star = 4.75e-4 }, { site = [4, 2], v_star = 2.09e-3 } ]
+[run]
+t_end = 0.1
+average_from = 1e-3
+checkpoint_every = 1e-3
+[solver]
+method = "imex"
+rtol = 1e-7
+atol_displacement = 1e-13
+atol_velocity = 1e-8
+)");
+  box.write("s.toml", "[sweep]\ncase = \"two.toml\"\n[vary]\ndrive.velocity = [1e-3, 1.2e-3]\n");
+  const std::string cmd =
+      "cd " + test::quote(box.work.string()) + " && (" + test::quote(STICKSLIP_EXE) +
+      " sweep s.toml --jobs 2 --out part >part.txt 2>&1 & pid=$!; "
+      "while [ $(ls part/*/friction.csv 2>/dev/null | wc -l) -lt 2 ]; do sleep 0.02; done; "
+      "kill -INT $pid; i=0; while kill -0 $pid 2>/dev/null && [ $i -lt 1000 ]; do "
+      "sleep 0.02; i=$((i+1)); done; "
+      "if kill -0 $pid 2>/dev/null; then echo 'still running' >>part.txt; kill -TERM $pid; fi; "
+      "wait $pid)";
+  const int status = std::system(cmd.c_str());
+  const std::string log = slurp(box.work / "part.txt");
+  INFO(log);
+  REQUIRE(WIFEXITED(status));
+  CHECK_THAT(log, !Catch::Contains("still running"));
+  CHECK(WEXITSTATUS(status) == 130);
+  int stopped = 0;
+  for (const auto& p : fs::directory_iterator(box.work / "part")) {
+    if (!p.is_directory()) continue;
+    INFO(p.path());
+    const std::string run_log = slurp(p.path() / "run.log");
+    INFO(run_log);
+    // Each stopped itself, early in its 0.1 s, and kept a checkpoint.
+    const auto at = run_log.find("interrupted at t = ");
+    REQUIRE(at != std::string::npos);
+    CHECK(std::strtod(run_log.c_str() + at + 19, nullptr) < 0.05);
+    CHECK(fs::exists(p.path() / "checkpoint.bin"));
+    CHECK_FALSE(fs::exists(p.path() / "summary.json"));
+    ++stopped;
+  }
+  CHECK(stopped == 2);
+}
+
 TEST_CASE("a sweep split into job-array shards makes the same tables as one run",
           "[sweep][shard]") {
   Sandbox box;

@@ -1,6 +1,9 @@
 """Sweeps from Python: the sweep's table, its points the module's runs."""
 
+import signal
+import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -50,3 +53,47 @@ def test_without_pandas_the_table_is_a_dict_of_arrays(sweep_file, tmp_path, monk
     assert isinstance(table, dict)
     assert table["point"].tolist() == ["velocity=0.001", "velocity=0.0005"]
     assert table["mu"].dtype == np.float64 and table["mu"].shape == (2,)
+
+
+INTERRUPTED_SWEEP = """
+import sys, stickslip
+try:
+    stickslip.sweep(sys.argv[1], jobs=2, out=sys.argv[2])
+except stickslip.Interrupted as stop:
+    print(stop.signal)
+    sys.exit(3)
+"""
+
+
+def test_interrupting_the_kernel_stops_a_sweeps_points_with_a_checkpoint(tmp_path):
+    # A notebook's "interrupt kernel" is SIGINT to the Python process alone,
+    # not to the points the sweep runs. Each point is 0.1 s of the pair under
+    # imex at rtol 1e-7, minutes of computing: one that is not stopped is
+    # still running when the test gives up, 20 s after the signal.
+    (tmp_path / "base.toml").write_text(PAIR_TOML.replace("t_end = 1e-3", "t_end = 0.1") + """
+[solver]
+method = "imex"
+rtol = 1e-7
+atol_displacement = 1e-13
+atol_velocity = 1e-8
+""")
+    (tmp_path / "velocity.toml").write_text(SWEEP)
+    out = tmp_path / "out"
+    child = subprocess.Popen([sys.executable, "-c", INTERRUPTED_SWEEP, str(tmp_path / "velocity.toml"),
+                              str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while len(list(out.glob("*/friction.csv"))) < 2 and child.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    child.send_signal(signal.SIGINT)
+    try:
+        stdout, stderr = child.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        child.send_signal(signal.SIGTERM)  # which the sweep passes on: its points stop
+        child.communicate(timeout=60)
+        pytest.fail("the sweep's points ran on after SIGINT")
+    assert child.returncode == 3, stderr
+    assert stdout.strip() == str(int(signal.SIGINT))
+    for point in ("velocity=0.001", "velocity=0.0005"):
+        assert (out / point / "checkpoint.bin").exists()
+        assert not (out / point / "summary.json").exists()
+        assert "interrupted at t = " in (out / point / "run.log").read_text()

@@ -50,40 +50,96 @@ int with_exit_codes(Body&& body) {
   }
 }
 
-int run_command(const std::string& case_file, const std::string& out, const std::string& restart,
-                const std::vector<std::string>& sets, bool overwrite, bool quiet,
-                bool any_version) {
+// `stickslip run` as it was given, for the command that continues it.
+struct RunArguments {
+  // The program as started: made absolute when it was a path, so that the
+  // command runs from any directory; a bare name (found on PATH) as given.
+  std::string program;
+  std::string case_file;            // as given
+  std::filesystem::path case_path;  // absolute, resolved at startup
+  std::string out, restart;
+  std::vector<std::string> sets;  // the --set values as given
+  int threads = -1;               // --threads, -1 if not given
+  bool overwrite = false, quiet = false, any_version = false;
+};
+
+// One word for /bin/sh: as it is if it has nothing the shell would
+// interpret, else in single quotes (a quote inside as '\'').
+std::string shell_word(const std::string& word) {
+  const bool plain = !word.empty() && word.find_first_not_of(
+                                          "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
+                                          "0123456789@%+=:,./_-") == std::string::npos;
+  if (plain) return word;
+  std::string quoted = "'";
+  for (char ch : word) quoted += ch == '\'' ? std::string("'\\''") : std::string(1, ch);
+  return quoted + "'";
+}
+
+// The command that continues the run in `dir`, ready to paste into a shell
+// in any directory: the same program, case and flags, with --restart in
+// place of --out, and without --overwrite (which would throw the run away).
+std::string continue_command(const RunArguments& a, const std::filesystem::path& dir,
+                             bool any_version) {
+  std::vector<std::string> words = {a.program, "run", a.case_path.string()};
+  for (const auto& set : a.sets) words.insert(words.end(), {"--set", set});
+  if (a.threads >= 0) words.insert(words.end(), {"--threads", std::to_string(a.threads)});
+  if (a.quiet) words.emplace_back("--quiet");
+  words.insert(words.end(),
+               {"--restart", std::filesystem::absolute(dir).lexically_normal().string()});
+  if (any_version) words.emplace_back("--any-version");
+  std::string command;
+  for (const auto& w : words) command += (command.empty() ? "" : " ") + shell_word(w);
+  return command;
+}
+
+int run_command(const RunArguments& a) {
   using namespace stickslip;
+  // From the start: a stop requested while the case is read still leaves a
+  // checkpoint, at the run's first output time.
+  install_stop_handlers();
   std::filesystem::path dir;  // known once the case is read
   try {
     return with_exit_codes([&] {
-      const Case c = read_case(case_file, sets);
+      std::vector<std::string> sets = a.sets;
+      if (a.threads >= 0) sets.push_back("solver.threads=" + std::to_string(a.threads));
+      const Case c = read_case(a.case_file, sets);
       RunOptions options;
-      options.out_dir = restart.empty() ? output_dir_for(c, out) : std::filesystem::path(restart);
-      options.overwrite = overwrite;
-      options.quiet = quiet;
-      options.restart = !restart.empty();
-      options.any_version = any_version;
+      options.out_dir =
+          a.restart.empty() ? output_dir_for(c, a.out) : std::filesystem::path(a.restart);
+      options.overwrite = a.overwrite;
+      options.quiet = a.quiet;
+      options.restart = !a.restart.empty();
+      options.any_version = a.any_version;
       dir = options.out_dir;
-      install_stop_handlers();
-      const Summary r = run_case(c, options);
-      std::printf(
-          "mu = %.6f  (theta = %.4f, %ld contacts, energy residual %.2e, %ld steps, %.1f s)\n",
-          r.mu, r.theta, r.contacts, r.energy_residual, r.solver_stats.steps, r.wall_seconds);
-      std::printf("outputs in %s\n", options.out_dir.string().c_str());
-      if (const std::string warning = mu_warning(r); !warning.empty()) {
-        std::fflush(stdout);  // after the μ it is about, also through pipes
-        std::fprintf(stderr, "warning: %s\n", warning.c_str());
+      try {
+        const Summary r = run_case(c, options);
+        std::printf(
+            "mu = %.6f  (theta = %.4f, %ld contacts, energy residual %.2e, %ld steps, %.1f s)
+            ",
+            r.mu,
+            r.theta, r.contacts, r.energy_residual, r.solver_stats.steps, r.wall_seconds);
+        std::printf("outputs in %s
+", options.out_dir.string().c_str());
+        if (const std::string warning = mu_warning(r); !warning.empty()) {
+          std::fflush(stdout);  // after the μ it is about, also through pipes
+          std::fprintf(stderr, "warning: %s
+", warning.c_str());
+        }
+        return 0;
+      } catch (const ResumableRunError& e) {
+        std::fprintf(stderr, "error: %s
+                     continue with
+                     : % s ", e.what(),
+                           continue_command(a, dir, a.any_version || e.needs_any_version)
+                               .c_str());
+        return 2;
       }
-      return 0;
     });
   } catch (const Interrupted& stop) {
-    std::string sets_text;
-    for (const auto& set : sets) sets_text += " --set '" + set + "'";
     std::fprintf(stderr,
                  "interrupted at t = %.9g s; outputs flushed and a checkpoint written in %s\n"
-                 "continue with: stickslip run %s%s --restart %s\n",
-                 stop.t, dir.c_str(), case_file.c_str(), sets_text.c_str(), dir.c_str());
+                 "continue with: %s\n",
+                 stop.t, dir.c_str(), continue_command(a, dir, a.any_version).c_str());
     return 128 + stop.signal;
   }
 }
@@ -235,28 +291,24 @@ int main(int argc, char** argv) {
   CLI::App app{
       "stickslip: an elastic block sliding on stick-slip contacts (3D spring-block model)"};
   app.require_subcommand(1);
-  std::string case_file, out;
-  std::vector<std::string> sets;
-  bool overwrite = false, quiet = false;
+  RunArguments r;
   CLI::App* run = app.add_subcommand("run", "integrate a case file and write its outputs");
-  run->add_option("case", case_file, "the case file (TOML)")->required();
-  std::string restart;
+  run->add_option("case", r.case_file, "the case file (TOML)")->required();
   auto* out_option = run->add_option(
-      "--out", out, "output directory (default: [output] dir, else out/<case name>)");
-  run->add_option("--restart", restart,
-                  "continue the interrupted run in this output directory from its checkpoint")
+      "--out", r.out, "output directory (default: [output] dir, else out/<case name>)");
+  run->add_option("--restart", r.restart,
+                  "continue the interrupted run in this output directory from its checkpoint, "
+                  "or a finished one that kept its final state to a later run.t_end")
       ->excludes(out_option);
-  run->add_option("--set", sets, "override a case value: section.key=value (repeatable)");
-  run->add_flag("--overwrite", overwrite,
+  run->add_option("--set", r.sets, "override a case value: section.key=value (repeatable)");
+  run->add_flag("--overwrite", r.overwrite,
                 "replace the results of an earlier run in the output directory");
-  run->add_flag("--quiet", quiet, "no progress on stderr");
-  int threads = -1;
-  run->add_option("--threads", threads,
+  run->add_flag("--quiet", r.quiet, "no progress on stderr");
+  run->add_option("--threads", r.threads,
                   "OpenMP threads of the run, as [solver] threads (0: every core the process may "
                   "use; results do not depend on it)")
       ->check(CLI::Range(0, 4096));
-  bool run_any_version = false;
-  run->add_flag("--any-version", run_any_version,
+  run->add_flag("--any-version", r.any_version,
                 "with --restart: continue a checkpoint written by another code version "
                 "(summary.json lists each attempt's); for changes that leave the numbers alone")
       ->needs(run->get_option("--restart"));
@@ -302,8 +354,13 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (*run) {
-    if (threads >= 0) sets.push_back("solver.threads=" + std::to_string(threads));
-    return run_command(case_file, out, restart, sets, overwrite, quiet, run_any_version);
+    // Before anything could change the working directory.
+    const std::string program = argc > 0 ? argv[0] : "stickslip";
+    r.program = program.find('/') == std::string::npos
+                    ? program
+                    : std::filesystem::absolute(program).lexically_normal().string();
+    r.case_path = std::filesystem::absolute(r.case_file).lexically_normal();
+    return run_command(r);
   }
   if (*sweep)
     return sweep_command(sweep_file, sweep_out, jobs, sweep_sets, sweep_overwrite,

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <set>
 
 #include "stickslip/output/writers.hpp"
 
@@ -24,20 +25,65 @@ nlohmann::json restart_identity(const nlohmann::json& case_json) {
   return id;
 }
 
-bool same_case(const nlohmann::json& written, const Case& current) {
-  nlohmann::json then = restart_identity(written);
+std::vector<CaseDifference> case_differences(const nlohmann::json& written, const Case& current) {
+  const nlohmann::json then = restart_identity(written);
   const nlohmann::json now = restart_identity(to_json(current));
   const nlohmann::json defaults = restart_identity(to_json(Case{}));
-  for (const auto& [section, keys] : now.items()) {
-    if (!keys.is_object()) continue;
-    if (!then.contains(section)) then[section] = nlohmann::json::object();  // a section added later
-    if (!then[section].is_object()) continue;
-    for (const auto& [key, value] : keys.items())
-      if (!then[section].contains(key) && defaults.contains(section) &&
-          defaults[section].contains(key) && defaults[section][key] == value)
-        then[section][key] = value;
+  // A value as a message shows it: as JSON (strings quoted, as in a case
+  // file), a long one (a list of contacts) cut short.
+  auto shown = [](const nlohmann::json* value) {
+    if (!value) return std::string("unset");
+    std::string text = value->dump();
+    if (text.size() > 60) text = text.substr(0, 57) + "...";
+    return text;
+  };
+  auto find = [](const nlohmann::json& j, const std::string& key) -> const nlohmann::json* {
+    const auto it = j.find(key);
+    return it == j.end() ? nullptr : &*it;
+  };
+  std::vector<CaseDifference> differences;
+  auto compare = [&](const std::string& key, const nlohmann::json* a, const nlohmann::json* b) {
+    if (a && b ? *a != *b : a != b) differences.push_back({key, shown(a), shown(b)});
+  };
+  std::set<std::string> sections;
+  for (const auto* j : {&then, &now})
+    for (const auto& [section, keys] : j->items()) sections.insert(section);
+  for (const auto& section : sections) {
+    const nlohmann::json* a = find(then, section);
+    const nlohmann::json* b = find(now, section);
+    const nlohmann::json* d = find(defaults, section);
+    if ((a && !a->is_object()) || (b && !b->is_object())) {
+      compare(section, a, b);
+      continue;
+    }
+    // A section the written case lacks was added later: every key its default.
+    static const nlohmann::json kNone = nlohmann::json::object();
+    const nlohmann::json& keys_then = a ? *a : kNone;
+    const nlohmann::json& keys_now = b ? *b : kNone;
+    std::set<std::string> keys;
+    for (const auto* j : {&keys_then, &keys_now})
+      for (const auto& [key, value] : j->items()) keys.insert(key);
+    for (const auto& key : keys) {
+      const nlohmann::json* x = find(keys_then, key);
+      // A key written before it existed meant its default.
+      if (!x && d && d->is_object()) x = find(*d, key);
+      compare(section + "." + key, x, find(keys_now, key));
+    }
   }
-  return then == now;
+  return differences;
+}
+
+bool same_case(const nlohmann::json& written, const Case& current) {
+  return case_differences(written, current).empty();
+}
+
+std::string describe(const std::vector<CaseDifference>& differences,
+                     const std::string& written_as) {
+  std::string text;
+  for (const auto& d : differences)
+    text += (text.empty() ? "" : "; ") + d.key + ": " + d.written + " in the " + written_as + ", " +
+            d.current + " in the case";
+  return text;
 }
 
 // Layout: a magic line, one line of JSON (everything but the state), then the

@@ -166,6 +166,7 @@ struct CaseRun::State {
   const RunOptions options;
   const std::filesystem::path dir;
   const Clock::time_point wall_start = Clock::now();
+  bool extends_finished = false;  // set by open_output_dir, which makes `resume`
   std::optional<Checkpoint> resume;
   std::unique_ptr<const System> system_owned;
   const System& system;
@@ -192,33 +193,114 @@ std::unique_ptr<const System> make_system(const Case& c) {
   return std::make_unique<const System>(c, place_contacts(c.lattice, c.interface));
 }
 
+std::string seconds(double t) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.9g s", t);
+  return text;
+}
+
+// The checkpoint in `dir` if `c` continues it: its case, but for a run.t_end
+// after the time it reached. Anything else (none, damaged, another case) is
+// no run this case continues.
+std::optional<Checkpoint> checkpoint_continued_by(const Case& c, const std::filesystem::path& dir) {
+  if (!std::filesystem::exists(dir / kCheckpointFile)) return std::nullopt;
+  try {
+    Checkpoint checkpoint = read_checkpoint(dir);
+    for (const auto& d : case_differences(checkpoint.case_json, c))
+      if (d.key != "run.t_end") return std::nullopt;
+    if (c.run.t_end < checkpoint.t) return std::nullopt;
+    return checkpoint;
+  } catch (const OutputError&) {
+    return std::nullopt;
+  }
+}
+
+// A fresh start in a directory holding a run of this case that a restart
+// continues: say so, rather than offer --overwrite, which would throw it away.
+void refuse_resumable(const Case& c, const std::filesystem::path& dir) {
+  const auto checkpoint = checkpoint_continued_by(c, dir);
+  if (!checkpoint) return;
+  std::optional<Summary> finished;
+  try {
+    finished = read_summary(dir);
+  } catch (const OutputError&) {
+    return;  // not a summary this code writes: the usual refusal names it
+  }
+  // A finished run this case does not extend is results, as ever.
+  if (finished && !(c.run.t_end > finished->t_end)) return;
+  std::string what =
+      dir.string() + ": holds " +
+      (finished ? "a run of this case finished at t = " + seconds(finished->t_end) +
+                      " with its final state kept, which run.t_end = " + seconds(c.run.t_end) +
+                      " extends"
+                : "an interrupted run of this case (" + std::string(kCheckpointFile) +
+                      " at t = " + seconds(checkpoint->t) + ")") +
+      ": continue it with --restart (from Python, restart=True), or pass --overwrite to start "
+      "afresh";
+  const bool other_version = checkpoint->git_commit != kGitCommit;
+  if (other_version)
+    what += " (its checkpoint is code version " + checkpoint->git_commit +
+            "'s: --any-version continues it)";
+  throw ResumableRunError(what, other_version);
+}
+
 // A restart continues from the checkpoint: same case, same code (or any
-// code, when asked); every recorder cuts its output back to the checkpoint's time.
-std::optional<Checkpoint> open_output_dir(const Case& c, const RunOptions& options) {
+// code, when asked); every recorder cuts its output back to the checkpoint's
+// time. The case may change run.t_end, to any time after the one the
+// checkpoint reached: a run continued past its first run.t_end (a finished
+// run keeps its final checkpoint when [output] final_state is set), or to an
+// earlier one it has not reached. `extends_finished`: the directory held a
+// finished run, which the restart continues.
+std::optional<Checkpoint> open_output_dir(const Case& c, const RunOptions& options,
+                                          bool& extends_finished) {
   const auto& dir = options.out_dir;
   if (!options.restart) {
+    if (!options.overwrite) refuse_resumable(c, dir);
     prepare_output_dir(dir, options.overwrite, result_files());
     return std::nullopt;
   }
   // A summary.json that does not parse (cut short outside this code, which
   // writes it atomically) is no finished run: the restart replaces it.
-  bool finished = false;
+  std::optional<Summary> finished;
   try {
-    finished = read_summary(dir).has_value();
+    finished = read_summary(dir);
   } catch (const OutputError& e) {  // whole JSON, but not a summary this code writes
     throw OutputError(dir.string() + ": the run there has finished (summary.json exists, " +
                       "written by another code version?): " + e.what());
   }
-  if (finished)
+  const auto file = (dir / kCheckpointFile).string();
+  if (finished && !std::filesystem::exists(file)) {
+    if (c.run.t_end > finished->t_end)
+      throw OutputError(dir.string() +
+                        ": the run there finished at t = " + seconds(finished->t_end) +
+                        " without keeping its final state, so it cannot be continued to "
+                        "run.t_end = " +
+                        seconds(c.run.t_end) +
+                        ": a run keeps it when its case sets [output] final_state = true (run "
+                        "it again with that, and --overwrite)");
     throw OutputError(dir.string() + ": the run there has finished (summary.json exists)");
+  }
   Checkpoint resume = read_checkpoint(dir);
-  if (!same_case(resume.case_json, c))
-    throw OutputError((dir / kCheckpointFile).string() +
-                      ": written for a different case; restart with the case file it came from");
+  const auto differences = case_differences(resume.case_json, c);
+  if (std::any_of(differences.begin(), differences.end(),
+                  [](const CaseDifference& d) { return d.key != "run.t_end"; }))
+    throw OutputError(file + ": written for a different case (" +
+                      describe(differences, "checkpoint") +
+                      "); a restart may change only run.t_end: restart with the case file it "
+                      "came from");
+  if (finished && c.run.t_end == resume.t)
+    throw OutputError(dir.string() +
+                      ": the run there has finished (summary.json exists); a later run.t_end "
+                      "(--set run.t_end=...) continues it");
+  if (c.run.t_end < resume.t)
+    throw OutputError(file + ": run.t_end = " + seconds(c.run.t_end) +
+                      " is before t = " + seconds(resume.t) +
+                      ", which the run there has already reached: a restart continues a run "
+                      "to a later time only");
   if (resume.git_commit != kGitCommit && !options.any_version)
-    throw OutputError((dir / kCheckpointFile).string() + ": written by code version " +
-                      resume.git_commit + ", this is " + kGitCommit +
-                      " (--any-version continues it anyway)");
+    throw OutputError(file + ": written by code version " + resume.git_commit + ", this is " +
+                      kGitCommit + " (--any-version continues it anyway)");
+  extends_finished = finished.has_value();
   return resume;
 }
 }  // namespace
@@ -227,7 +309,7 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
     : c(c_),
       options(options_),
       dir(options_.out_dir),
-      resume(open_output_dir(c_, options_)),
+      resume(open_output_dir(c_, options_, extends_finished)),
       system_owned(make_system(c_)),
       system(*system_owned),
       progress(!options_.quiet, c_.run.t_end) {
@@ -283,13 +365,23 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
   t_avg = c.run.average_from;
   dt = c.output.interval;
   outputs = static_cast<long>(std::ceil(t_end / dt - 1e-9));
-  next = resume ? resume->output_index + 1 : 1;
+  // The next row is the first output time after the checkpoint's: a finished
+  // run whose t_end is off the output grid wrote its last row there, before
+  // output time output_index·dt, which a run continued past it records too.
+  const bool off_grid =
+      resume && resume->t < static_cast<double>(resume->output_index) * dt * (1 - 1e-9);
+  next = !resume                         ? 1
+         : off_grid && t_end > resume->t ? resume->output_index
+                                         : resume->output_index + 1;
   impulse_at_avg = resume ? resume->impulse_at_average : (t_avg == 0.0 ? 0.0 : std::nan(""));
   segments = resume ? resume->segments : std::vector<RunSegment>{};
   segments.push_back({resume ? resume->t : 0.0, kGitCommit});
   impulse = system.quadrature_index(System::friction_impulse);
   every = c.run.checkpoint_every;
   next_checkpoint = every > 0 ? (resume ? resume->t : 0.0) + every : kInfinity;
+  // Continued past its end, the run is no longer finished: until it is, the
+  // directory holds a stopped run (its checkpoint, and rows after t_end).
+  if (extends_finished) std::filesystem::remove(dir / kSummaryFile);
 }
 
 void CaseRun::State::flush_all() {
@@ -505,9 +597,15 @@ Summary CaseRun::finish() {
   summary.case_json = to_json(c);
   for (const auto& r : s.recorders) r->finish(s.t_end, y, summary);
   s.tables->set_attribute("summary", to_json(summary).dump());
+  // Its final state kept, a finished run can be continued to a later t_end:
+  // the checkpoint at t_end, written before summary.json, so a stop between
+  // the two leaves a run a restart finishes. Otherwise it has nothing left to
+  // resume.
+  if (c.output.final_state)
+    s.checkpoint(s.t_end, s.outputs);
+  else
+    std::filesystem::remove(s.dir / kCheckpointFile);
   write_summary(s.dir, summary);
-  // The run is complete: its checkpoint has nothing left to resume.
-  std::filesystem::remove(s.dir / kCheckpointFile);
   return summary;
 }
 

@@ -11,6 +11,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -153,8 +154,11 @@ PointState point_state(const SweepPoint& point, const fs::path& dir, std::string
         return PointState::stale;
       }
   }
-  if (!same_case(summary->case_json, point.c)) {
-    if (why) *why = "computed for a different case (the base case or [set] changed)";
+  if (const auto differences = case_differences(summary->case_json, point.c);
+      !differences.empty()) {
+    if (why)
+      *why = "computed for a different case (the base case or [set] changed: " +
+             describe(differences, "point's summary.json") + ")";
     return PointState::stale;
   }
   return PointState::finished;
@@ -330,7 +334,7 @@ SweepOutcome run_sweep(const Sweep& sweep, const std::vector<SweepPoint>& points
   };
   std::map<pid_t, Running> running;
   g_sweep_signal = 0;
-  // Without SA_RESTART, so a signal interrupts waitpid below.
+  // Without SA_RESTART, so a signal cuts the pause between polls short.
   struct sigaction stop = {}, old_int = {}, old_term = {};
   stop.sa_handler = request_sweep_stop;
   sigemptyset(&stop.sa_mask);
@@ -349,22 +353,32 @@ SweepOutcome run_sweep(const Sweep& sweep, const std::vector<SweepPoint>& points
   while (next < todo.size() || !running.empty()) {
     while (!g_sweep_signal && next < todo.size() &&
            running.size() < static_cast<std::size_t>(std::max(1, options.jobs))) {
-      const auto& p = points[todo[next]];
-      // A point stopped earlier continues from its checkpoint.
-      start(todo[next++], fs::exists(options.out_dir / p.name / kCheckpointFile));
+      const fs::path dir = options.out_dir / points[todo[next]].name;
+      // A point stopped earlier continues from its checkpoint; one with a
+      // summary (stale, to recompute) starts afresh, even if it kept its
+      // final state.
+      start(todo[next++], fs::exists(dir / kCheckpointFile) && !fs::exists(dir / kSummaryFile));
     }
+    // SIGINT or SIGTERM sent to the sweep alone (a notebook's interrupt, kill,
+    // a scheduler before its time limit) is passed on to the running points,
+    // which checkpoint and stop. A terminal's Ctrl-C reaches them through the
+    // process group as well; a second request changes nothing for them.
+    if (g_sweep_signal && !forwarded) {
+      for (const auto& [child, r] : running) kill(child, g_sweep_signal);
+      forwarded = true;
+    }
+    if (running.empty()) break;  // stopped before the points left were started
     int status = 0;
-    const pid_t pid = waitpid(-1, &status, 0);
+    // Polled, not blocking: a signal arriving between the check above and a
+    // blocking wait would not end the wait, and the points would run on.
+    const pid_t pid = waitpid(-1, &status, WNOHANG);
+    if (pid == 0) {
+      const timespec pause = {0, 20'000'000};  // 20 ms; a signal cuts it short
+      nanosleep(&pause, nullptr);
+      continue;
+    }
     if (pid < 0) {
-      if (errno == EINTR) {
-        // Children in our process group got a terminal's SIGINT themselves;
-        // a SIGTERM sent to the sweep alone is passed on.
-        if (g_sweep_signal == SIGTERM && !forwarded) {
-          for (const auto& [child, r] : running) kill(child, SIGTERM);
-          forwarded = true;
-        }
-        continue;
-      }
+      if (errno == EINTR) continue;
       break;
     }
     const auto it = running.find(pid);

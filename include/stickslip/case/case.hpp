@@ -124,7 +124,9 @@ struct OutputParams {
   ContactSelection events = ContactSelection::all;  // whose stick/slip transitions are located
   std::vector<int> event_ids;                       // when events == list
   bool steps = false;                               // write steps.csv
-  bool final_state = false;                         // write final_state.csv
+  // write final_state.csv, and keep checkpoint.bin at t_end: a later
+  // run.t_end can then continue the run (run --restart)
+  bool final_state = false;
   bool signals = false;  // write signals.csv (block velocity, acoustic signal)
   OutputFormat format = OutputFormat::csv;
 };

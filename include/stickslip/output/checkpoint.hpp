@@ -7,6 +7,8 @@
 // what a recorder cannot recover from its table (a slip under way) it saves
 // in the checkpoint itself (Recorder::save).
 // Written atomically: a kill at any moment leaves the previous one whole.
+// A finished run whose case sets [output] final_state keeps its last, at
+// t_end, from which a restart continues it to a later t_end.
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -47,5 +49,19 @@ nlohmann::json restart_identity(const nlohmann::json& case_json);
 // the written one lacks (it was written before the key existed) counting as
 // the key's default.
 bool same_case(const nlohmann::json& written, const Case& current);
+
+// Where the restart identities of the case a run wrote and `current` differ
+// (same rule for keys written before they existed), key by key in the
+// schema's order.
+struct CaseDifference {
+  std::string key;      // "section.key", e.g. "run.t_end"
+  std::string written;  // its value in the written case, "unset" if it has none
+  std::string current;  // its value in `current`, "unset" if it has none
+};
+std::vector<CaseDifference> case_differences(const nlohmann::json& written, const Case& current);
+
+// The differences for a message: "run.t_end: 0.002 in the checkpoint, 0.004
+// in the case; ...", `written_as` naming where the written case came from.
+std::string describe(const std::vector<CaseDifference>& differences, const std::string& written_as);
 
 }  // namespace stickslip

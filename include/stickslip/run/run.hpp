@@ -10,17 +10,32 @@
 #include "stickslip/integrate/integrator.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/output/summary.hpp"
+#include "stickslip/output/writers.hpp"
 
 namespace stickslip {
 
 struct RunOptions {
   std::filesystem::path out_dir;
   bool overwrite = false;
-  bool quiet = false;    // no progress on stderr
-  bool restart = false;  // continue the run in out_dir from its checkpoint
+  bool quiet = false;  // no progress on stderr
+  // Continue the run in out_dir from its checkpoint (a finished run too, to
+  // the case's later run.t_end, when it kept its final state).
+  bool restart = false;
   // Continue a checkpoint written by another code version (summary.json then
   // lists each attempt's version): for changes that leave the numbers alone.
   bool any_version = false;
+};
+
+// A run started afresh (no restart, no overwrite) in an output directory that
+// holds a run this case continues: stopped by a signal, or finished with its
+// final state kept and the case asking for a later run.t_end. A restart is
+// what the user wants, not --overwrite; the command line prints the command.
+class ResumableRunError : public OutputError {
+ public:
+  ResumableRunError(const std::string& what, bool needs_any_version)
+      : OutputError(what), needs_any_version(needs_any_version) {}
+  // The checkpoint is another code version's: the restart needs --any-version.
+  bool needs_any_version;
 };
 
 // Thrown when SIGINT or SIGTERM stopped a run, after its final checkpoint was
