@@ -114,24 +114,17 @@ int run_command(const RunArguments& a) {
       try {
         const Summary r = run_case(c, options);
         std::printf(
-            "mu = %.6f  (theta = %.4f, %ld contacts, energy residual %.2e, %ld steps, %.1f s)
-            ",
-            r.mu,
-            r.theta, r.contacts, r.energy_residual, r.solver_stats.steps, r.wall_seconds);
-        std::printf("outputs in %s
-", options.out_dir.string().c_str());
+            "mu = %.6f  (theta = %.4f, %ld contacts, energy residual %.2e, %ld steps, %.1f s)\n",
+            r.mu, r.theta, r.contacts, r.energy_residual, r.solver_stats.steps, r.wall_seconds);
+        std::printf("outputs in %s\n", options.out_dir.string().c_str());
         if (const std::string warning = mu_warning(r); !warning.empty()) {
           std::fflush(stdout);  // after the μ it is about, also through pipes
-          std::fprintf(stderr, "warning: %s
-", warning.c_str());
+          std::fprintf(stderr, "warning: %s\n", warning.c_str());
         }
         return 0;
       } catch (const ResumableRunError& e) {
-        std::fprintf(stderr, "error: %s
-                     continue with
-                     : % s ", e.what(),
-                           continue_command(a, dir, a.any_version || e.needs_any_version)
-                               .c_str());
+        std::fprintf(stderr, "error: %s\ncontinue with: %s\n", e.what(),
+                     continue_command(a, dir, a.any_version || e.needs_any_version).c_str());
         return 2;
       }
     });
