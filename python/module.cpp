@@ -209,10 +209,4 @@ PYBIND11_MODULE(_core, m) {
         return py::str(to_json(*s).dump());
       },
       py::arg("dir"));
-  m.def(
-      "mu_warning",
-      [](const std::string& summary_json) {
-        return mu_warning(summary_from_json(nlohmann::json::parse(summary_json)));
-      },
-      py::arg("summary_json"));
 }

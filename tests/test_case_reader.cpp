@@ -203,7 +203,7 @@ TEST_CASE("out-of-range values name the range and the value", "[case]") {
        "cases/t.toml:2: interface.slip_threshold: must be > 0, got 0"},
       {"[drive]\nvelocity = -1e-3", "cases/t.toml:2: drive.velocity: must be >= 0, got -0.001"},
       {"[run]\nt_end = 0", "cases/t.toml:2: run.t_end: must be > 0, got 0"},
-      {"[solver]\nrtol = 0", "cases/t.toml:2: solver.rtol: must be > 0, got 0"},
+      {"[solver]\nrtol = 0", "cases/t.toml:2: solver.rtol: must be in [1e-12, 0.01], got 0"},
       {"[solver]\nmax_steps = 0", "cases/t.toml:2: solver.max_steps: must be >= 1, got 0"},
       {"[output]\ninterval = -1", "cases/t.toml:2: output.interval: must be > 0, got -1"},
   }));

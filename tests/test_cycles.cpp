@@ -184,10 +184,13 @@ TEST_CASE("a run from rest: a window on its loading is flagged, a later one of s
   CHECK(early.regime->kind == Regime::loading);
   CHECK(early.regime->drift > 0.5);
   CHECK_THAT(mu_warning(early), Catch::Contains("rises as a ramp"));
+  REQUIRE(early.warnings.size() == 1);  // the default rtol is not loose
+  CHECK(early.warnings[0].about == "mu");
   c.run.t_end = 8e-3;
   c.run.average_from = 4e-3;
   const Summary late = run_case(c, {dir.path / "late", false, true});
   REQUIRE(late.regime);
   CHECK(late.regime->kind == Regime::stick_slip);
   CHECK(mu_warning(late).empty());
+  CHECK(late.warnings.empty());
 }

@@ -179,3 +179,24 @@ TEST_CASE("read_summary: none, cut short, not a summary, and a written one", "[s
   REQUIRE(s);
   CHECK(s->mu == 5.25);
 }
+
+TEST_CASE("a summary warns of a mu from the loading and of an rtol too loose for slip times",
+          "[summary]") {
+  Summary s = full_summary();
+  CHECK(summary_warnings(s, 1e-6).empty());  // whole cycles, the default rtol
+  CHECK(summary_warnings(s, kLooseRtol).empty());
+  s.regime = WindowRegime{Regime::loading, 0.66, 0.9999};
+  s.warnings = summary_warnings(s, 1e-4);
+  REQUIRE(s.warnings.size() == 2);
+  CHECK(s.warnings[0].about == "mu");
+  CHECK_THAT(s.warnings[0].text, Catch::Contains("rises as a ramp (by 66 %)"));
+  CHECK(s.warnings[1].about == "rtol");
+  CHECK_THAT(s.warnings[1].text, Catch::StartsWith("rtol = 0.0001 is looser than 1e-05"));
+  // They read back from summary.json; a summary without them has none.
+  const Summary back = summary_from_json(nlohmann::json::parse(to_json(s).dump()));
+  REQUIRE(back.warnings.size() == 2);
+  CHECK(back.warnings[1].text == s.warnings[1].text);
+  nlohmann::json older = to_json(s);
+  older.erase("warnings");
+  CHECK(summary_from_json(older).warnings.empty());
+}

@@ -13,10 +13,11 @@ Python objects and numpy arrays. The README's "Python" section says more.
 
 from ._case import Case
 from ._core import CaseError, IntegrationError, OutputError, git_commit
-from ._run import Contacts, Events, Friction, Interrupted, MuWarning, Run, Slips, Traces, load, run
+from ._run import AccuracyWarning, Contacts, Events, Friction, Interrupted, MuWarning, Run, Slips, Traces, load, run
 from ._sweep import sweep
 
 __all__ = [
+    "AccuracyWarning",
     "Case",
     "CaseError",
     "Contacts",

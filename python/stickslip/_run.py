@@ -109,7 +109,12 @@ class Run:
         return None if regime is None else regime["mu_trusted"]
 
 
-class MuWarning(UserWarning):
+class AccuracyWarning(UserWarning):
+    """Something summary.json's "warnings" says a user of the result must know
+    (e.g. an rtol too loose to trust slip counts and times)."""
+
+
+class MuWarning(AccuracyWarning):
     """A run's μ is not a friction coefficient: its averaging window holds no
     whole slip cycle and no steady sliding (summary["regime"]), e.g. the
     elastic loading from rest."""
@@ -235,9 +240,8 @@ def run(case, out=None, progress=False, overwrite=False, restart=False,
             _, signal, t = outcome
             raise Interrupted(signal, t, None if temporary else dir)
         result = load(dir)
-        warning = _core.mu_warning(json.dumps(result.summary))
-        if warning:
-            warnings.warn(warning, MuWarning, stacklevel=2)
+        for w in result.summary.get("warnings", []):
+            warnings.warn(w["text"], MuWarning if w["about"] == "mu" else AccuracyWarning, stacklevel=2)
         return Run(**{**result.__dict__, "dir": None}) if temporary else result
     finally:
         if temporary:

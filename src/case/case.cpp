@@ -114,6 +114,7 @@ nlohmann::json to_json(const Case& c) {
       {"output",
        {{"dir", c.output.dir.string()},
         {"interval", c.output.interval},
+        {"max_rows", c.output.max_rows},
         {"traces", traces},
         {"events", selection(c.output.events, c.output.event_ids)},
         {"steps", c.output.steps},

@@ -117,10 +117,8 @@ int run_command(const RunArguments& a) {
             "mu = %.6f  (theta = %.4f, %ld contacts, energy residual %.2e, %ld steps, %.1f s)\n",
             r.mu, r.theta, r.contacts, r.energy_residual, r.solver_stats.steps, r.wall_seconds);
         std::printf("outputs in %s\n", options.out_dir.string().c_str());
-        if (const std::string warning = mu_warning(r); !warning.empty()) {
-          std::fflush(stdout);  // after the μ it is about, also through pipes
-          std::fprintf(stderr, "warning: %s\n", warning.c_str());
-        }
+        std::fflush(stdout);  // the warnings after the μ they are about, also through pipes
+        for (const auto& w : r.warnings) std::fprintf(stderr, "warning: %s\n", w.text.c_str());
         return 0;
       } catch (const ResumableRunError& e) {
         std::fprintf(stderr, "error: %s\ncontinue with: %s\n", e.what(),

@@ -18,7 +18,8 @@ nlohmann::json restart_identity(const nlohmann::json& case_json) {
   id.erase("source");
   if (id.contains("output")) {
     id["output"].erase("dir");
-    id["output"].erase("format");  // changes no number (a restart needs the same files anyway)
+    id["output"].erase("format");    // changes no number (a restart needs the same files anyway)
+    id["output"].erase("max_rows");  // a guard, not a parameter
   }
   if (id.contains("run")) id["run"].erase("checkpoint_every");  // may change between attempts
   if (id.contains("solver")) id["solver"].erase("threads");     // changes no number, bit for bit

@@ -596,6 +596,8 @@ Summary CaseRun::finish() {
   summary.sundials_version = SUNDIALS_VERSION;
   summary.case_json = to_json(c);
   for (const auto& r : s.recorders) r->finish(s.t_end, y, summary);
+  // A fixed step has no rtol to be loose.
+  summary.warnings = summary_warnings(summary, c.solver.step > 0 ? 0.0 : c.solver.rtol);
   s.tables->set_attribute("summary", to_json(summary).dump());
   // Its final state kept, a finished run can be continued to a later t_end:
   // the checkpoint at t_end, written before summary.json, so a stop between

@@ -119,6 +119,9 @@ enum class OutputFormat { csv, hdf5 };
 struct OutputParams {
   std::filesystem::path dir;  // empty: out/<case file stem> in the working directory
   double interval = 1e-6;     // [s] between rows of friction.csv and traces.csv
+  // The most rows t_end/interval may give a table: a guard against a typo
+  // that would write for days (t_end = 1e9 s at 1 µs: 1e15 rows).
+  long max_rows = 10'000'000;
   ContactSelection traces = ContactSelection::none;
   std::vector<int> trace_ids;                       // when traces == list
   ContactSelection events = ContactSelection::all;  // whose stick/slip transitions are located

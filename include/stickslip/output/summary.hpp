@@ -41,6 +41,12 @@ struct RunSegment {
   std::string git_commit;
 };
 
+// Something a user of the result must know (summary.json's "warnings"):
+// `about` names what it questions ("mu", "rtol").
+struct SummaryWarning {
+  std::string about, text;
+};
+
 struct Summary {
   double mu = 0.0;  // over [average_from, t_end], from the friction impulse
   std::optional<WholeCycleMu> mu_whole_cycles;
@@ -62,6 +68,7 @@ struct Summary {
   nlohmann::json case_json;                  // "case": the case as resolved
   std::optional<EventSummary> events;
   std::optional<Synchronization> synchronization;
+  std::vector<SummaryWarning> warnings;  // mu_warning's and tolerance_warning's, if any
 };
 
 nlohmann::json to_json(const Summary& s);
@@ -69,6 +76,12 @@ nlohmann::json to_json(const Summary& s);
 // loading ramp, or less than a cycle), naming what to change; empty if μ is
 // one, or its window was not judged.
 std::string mu_warning(const Summary& s);
+// The warning for a tolerance too loose to trust slip counts and times
+// (rtol > kLooseRtol); empty otherwise.
+inline constexpr double kLooseRtol = 1e-5;
+std::string tolerance_warning(double rtol);
+// Both, as the summary lists them.
+std::vector<SummaryWarning> summary_warnings(const Summary& s, double rtol);
 // Throws std::invalid_argument naming the first field that is missing or of
 // the wrong type. Fields a summary of an older version lacks
 // (mu_whole_cycles, F_f_spread) are left empty.
