@@ -64,3 +64,30 @@ def test_xarray_opens_a_table_as_a_labelled_dataset(h5_run):
         assert ds["vx"].dims == ("t", "contact")
         assert ds["contact"].values.tolist() == [0, 1]
         np.testing.assert_array_equal(ds["vx"].sel(contact=1).values, h5_run.traces.vx[:, 1])
+
+
+@pytest.mark.filterwarnings("ignore::stickslip.MuWarning")  # 0.5 ms: still loading
+def test_a_restart_keeps_the_scales_and_gives_an_older_file_them(tmp_path):
+    from conftest import PAIR_TOML
+
+    (tmp_path / "pair.toml").write_text(PAIR_TOML)
+    case = stickslip.Case.from_toml(tmp_path / "pair.toml").replace(
+        {"output.format": "hdf5", "output.final_state": True, "run.t_end": 5e-4})
+    for older in (False, True):
+        out = tmp_path / f"older={older}"
+        stickslip.run(case, out=out)
+        if older:  # as written before tables had dimension scales: no scale attributes
+            with h5py.File(out / "run.h5", "r+") as f:
+                for group in f.values():
+                    for ds in group.values():
+                        for name in ("DIMENSION_LIST", "REFERENCE_LIST", "CLASS", "NAME"):
+                            if name in ds.attrs:
+                                del ds.attrs[name]
+                assert not h5py.h5ds.is_scale(f["friction/t"].id)
+        longer = stickslip.run(case.replace({"run.t_end": 1e-3}), out=out, restart=True)
+        assert longer.friction.t.size == 1001
+        with h5py.File(out / "run.h5", "r") as f:
+            assert h5py.h5ds.is_scale(f["friction/t"].id), older
+            assert f["friction/F_f"].dims[0].keys() == ["t"], older
+            assert f["traces/vy"].dims[1].keys() == ["contact"], older
+            assert f["traces/vy"].shape == (1001, 2)
