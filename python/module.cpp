@@ -78,15 +78,31 @@ py::dict read_events(const fs::path& dir) {
 // Runs the case; returns summary.json's text, or on SIGINT/SIGTERM
 // ("interrupted", signal, t). The GIL is released for the run. While it goes,
 // SIGINT and SIGTERM stop it at its next output time, as on the command line,
-// and with it every other run of the process (runs in threads).
+// and with it every other run of the process (runs in threads). `progress`,
+// unless None, is called with (t, steps) at the first output time, then
+// twice a second at most (with the
+// GIL; an exception it raises is dropped: a progress bar must not stop a run).
 py::object run(const Case& c, const fs::path& out, bool overwrite, bool restart, bool any_version,
-               bool quiet) {
+               bool quiet, const py::object& progress) {
   RunOptions options;
   options.out_dir = out;
   options.overwrite = overwrite;
   options.restart = restart;
   options.any_version = any_version;
   options.quiet = quiet;
+  if (!progress.is_none()) {
+    // A pointer, not a copy: the options are copied and destroyed without
+    // the GIL, and a py::object must not be.
+    const py::object* callback = &progress;
+    options.on_progress = [callback](double t, long steps) {
+      py::gil_scoped_acquire gil;
+      try {
+        (*callback)(t, steps);
+      } catch (py::error_already_set& e) {
+        e.discard_as_unraisable("stickslip progress callback");
+      }
+    };
+  }
   std::optional<Interrupted> stopped;
   Summary summary;
   {
@@ -194,7 +210,7 @@ PYBIND11_MODULE(_core, m) {
   m.def("case_key_problem", [](const std::string& key) { return case_key_problem(key); });
 
   m.def("run", &run, py::arg("case"), py::arg("out"), py::arg("overwrite"), py::arg("restart"),
-        py::arg("any_version"), py::arg("quiet"));
+        py::arg("any_version"), py::arg("quiet"), py::arg("progress") = py::none());
   m.def("sweep", &sweep, py::arg("file"), py::arg("out"), py::arg("jobs"), py::arg("sets"),
         py::arg("overwrite"), py::arg("any_version"), py::arg("executable"), py::arg("progress"));
 

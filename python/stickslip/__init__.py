@@ -5,6 +5,7 @@
                                      "run": {"t_end": 10e-3, "average_from": 5e-3}})
     run = stickslip.run(case.replace({"drive.velocity": 3e-4}))
     run.summary["mu"], run.friction.t, run.friction.mu_inst
+    run.friction.to_pandas(), run.to_xarray()
 
 The physics and the numerics are the C++ library the command line uses
 (`stickslip._core`); this package turns cases, runs and their tables into
@@ -14,7 +15,7 @@ Python objects and numpy arrays. The README's "Python" section says more.
 from ._case import Case
 from ._core import CaseError, IntegrationError, OutputError, git_commit
 from ._run import AccuracyWarning, Contacts, Events, Friction, Interrupted, MuWarning, Run, Slips, Traces, load, run
-from ._sweep import sweep
+from ._sweep import load_sweep, sweep
 
 __all__ = [
     "AccuracyWarning",
@@ -32,6 +33,7 @@ __all__ = [
     "Traces",
     "git_commit",
     "load",
+    "load_sweep",
     "run",
     "sweep",
 ]

@@ -1,5 +1,6 @@
 """Cases: read from TOML or from a dict, changed like --set, written as TOML."""
 
+import errno
 import json
 import math
 import numbers
@@ -89,8 +90,11 @@ class Case:
 
     @classmethod
     def from_toml(cls, path):
-        """The case file at `path`, as `stickslip run` reads it."""
+        """The case file at `path`, as `stickslip run` reads it;
+        FileNotFoundError if there is none."""
         path = Path(path)
+        if not path.exists():
+            raise FileNotFoundError(errno.ENOENT, "no such case file", str(path))
         try:
             text = path.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError):  # the C++ reader says why, in the command line's words

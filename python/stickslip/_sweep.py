@@ -11,6 +11,7 @@ import numpy as np
 
 from . import _core
 from ._case import _overrides
+from ._core import OutputError
 from ._run import Interrupted, MuWarning
 
 
@@ -54,6 +55,16 @@ def _read_csv(path):
     return table
 
 
+def load_sweep(dir):
+    """The table of the sweep in `dir` (its sweep.csv, a row per point), as
+    sweep() returns it: a pandas DataFrame if pandas is installed, else a
+    dict of numpy arrays. OutputError if `dir` has no sweep.csv."""
+    path = Path(dir) / "sweep.csv"
+    if not path.is_file():
+        raise OutputError(f"{dir}: no sweep.csv (not a sweep's directory, or no point has finished)")
+    return _read_csv(path)
+
+
 def sweep(path, jobs=None, out=None, set=None, overwrite=False, any_version=False, progress=False):
     """Runs the sweep file at `path` as `stickslip sweep` does (points already
     finished are kept, each point in its own directory under `out`, default
@@ -76,7 +87,7 @@ def sweep(path, jobs=None, out=None, set=None, overwrite=False, any_version=Fals
     if outcome["failed"]:
         warnings.warn(f"{outcome['failed']} of the sweep's points failed: see their run.log",
                       RuntimeWarning, stacklevel=2)
-    table = _read_csv(Path(outcome["out"]) / "sweep.csv")
+    table = load_sweep(outcome["out"])
     untrusted = [r for r in table["regime"] if isinstance(r, str) and r not in ("stick-slip", "steady sliding")]
     if untrusted:
         warnings.warn(f"{len(untrusted)} of the sweep's points have a μ that is not a friction coefficient "

@@ -91,8 +91,10 @@ def test_a_bad_case_file_raises_case_error_with_file_and_line(tmp_path):
     bad.write_text(PAIR_TOML.replace("nz = 4", "nz = -4"))
     with pytest.raises(stickslip.CaseError, match=r"bad.toml:4: lattice.nz: must be >= 2, got -4"):
         stickslip.Case.from_toml(bad)
-    with pytest.raises(stickslip.CaseError, match="cannot read case file"):
+    with pytest.raises(FileNotFoundError, match="no such case file.*missing.toml"):
         stickslip.Case.from_toml(tmp_path / "missing.toml")
+    with pytest.raises(FileNotFoundError):
+        stickslip.run(tmp_path / "missing.toml")
 
 
 def test_tuples_and_numpy_values_are_case_values():

@@ -40,6 +40,13 @@ def test_a_sweep_returns_its_table_and_its_points_are_the_modules_runs(sweep_fil
     # `set` applies to every point, as --set does; finished points are kept.
     again = stickslip.sweep(sweep_file, jobs=1, out=tmp_path / "out", progress=False)
     assert again["mu"].tolist() == table["mu"].tolist()
+    # The directory is a sweep's: load says how to read it, load_sweep reads it.
+    with pytest.raises(stickslip.OutputError, match=r"a sweep directory: read its sweep.csv with "
+                       r"stickslip.load_sweep\("):
+        stickslip.load(tmp_path / "out")
+    assert stickslip.load_sweep(tmp_path / "out")["mu"].tolist() == table["mu"].tolist()
+    with pytest.raises(stickslip.OutputError, match="no sweep.csv"):
+        stickslip.load_sweep(tmp_path / "out" / "velocity=0.001")
     with pytest.raises(stickslip.CaseError, match="lattice.nz: must be >= 2"):
         stickslip.sweep(sweep_file, out=tmp_path / "other", set={"lattice.nz": 1})
     with pytest.raises(stickslip.CaseError, match="drive.velocity: .* varies it"):

@@ -3,10 +3,16 @@
 // share a `dataset`), rows buffered and written in blocks, the file flushed
 // whenever the recorders flush. A run stopped by a signal closes the file; a
 // killed one leaves what was flushed in practice (HDF5 without SWMR does not
-// promise it: it may write metadata between flushes).
+// promise it: it may write metadata between flushes). The table's first
+// dataset (time, or contacts' id) is an HDF5 dimension scale attached to
+// every other dataset's rows, the member ids (traces/contact) one attached
+// to the 2-D datasets' columns, and every quantity has its unit as the
+// attribute "units": h5py, h5netcdf and xarray see labelled dimensions
+// without this code's help.
 #include "hdf5_tables.hpp"
 
 #include <hdf5.h>
+#include <hdf5_hl.h>
 
 #include <algorithm>
 #include <cmath>
@@ -168,12 +174,13 @@ class Hdf5Table final : public Table {
                             create.get(), H5P_DEFAULT),
                  H5Dclose);
       if (!set.valid()) fail("cannot create the dataset " + d.name);
-      if (!d.first->unit.empty()) write_text_attribute(set.get(), "unit", d.first->unit, path_);
+      if (!d.first->unit.empty()) write_text_attribute(set.get(), "units", d.first->unit, path_);
       if (wide) write_text_attribute(set.get(), "members", spec_.member_name, path_);
       datasets_.push_back(std::move(set));
       types_.push_back(std::move(type));
     }
     if (!spec_.members.empty()) write_members();
+    attach_scales();
   }
 
   // The existing group, its rows after time t dropped.
@@ -199,6 +206,8 @@ class Hdf5Table final : public Table {
       const hsize_t extent[2] = {written_, sets_[k].columns.size()};
       if (H5Dset_extent(datasets_[k].get(), extent) < 0) fail("cannot cut back " + sets_[k].name);
     }
+    // A file written before tables had dimension scales gets them now.
+    if (H5DSis_scale(datasets_.front().get()) <= 0) attach_scales();
   }
 
   ~Hdf5Table() override {
@@ -229,6 +238,28 @@ class Hdf5Table final : public Table {
     hsize_t dims[2] = {0, 0};
     H5Sget_simple_extent_dims(space.get(), dims, nullptr);
     return dims[0];
+  }
+
+  // The first dataset becomes the scale of every other's rows; the members'
+  // dataset the scale of the 2-D datasets' columns.
+  void attach_scales() {
+    const hid_t rows = datasets_.front().get();
+    if (H5DSset_scale(rows, sets_.front().name.c_str()) < 0)
+      fail("cannot make " + sets_.front().name + " a dimension scale");
+    Handle members;
+    if (!spec_.members.empty()) {
+      members = Handle(H5Dopen2(group_.get(), spec_.member_name.c_str(), H5P_DEFAULT), H5Dclose);
+      if (!members.valid() || H5DSset_scale(members.get(), spec_.member_name.c_str()) < 0)
+        fail("cannot make " + spec_.member_name + " a dimension scale");
+    }
+    for (std::size_t k = 1; k < sets_.size(); ++k) {
+      const hid_t set = datasets_[k].get();
+      if (H5DSattach_scale(set, rows, 0) < 0)
+        fail("cannot attach " + sets_.front().name + " to " + sets_[k].name);
+      if (sets_[k].first->member >= 0 && members.valid() &&
+          H5DSattach_scale(set, members.get(), 1) < 0)
+        fail("cannot attach " + spec_.member_name + " to " + sets_[k].name);
+    }
   }
 
   void write_members() {

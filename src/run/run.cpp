@@ -9,10 +9,12 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <utility>
 
 #include "stickslip/analysis/events.hpp"
 #include "stickslip/integrate/sundials.hpp"
@@ -49,15 +51,22 @@ double seconds_since(Clock::time_point start) {
 }
 
 // Progress on stderr, only when it is a terminal: simulated time, percent,
-// steps, elapsed and estimated remaining wall time, twice a second at most.
+// steps, elapsed and estimated remaining wall time, twice a second at most;
+// and to RunOptions::on_progress, if given, at the first output time and
+// then as often.
 class Progress {
  public:
-  Progress(bool enabled, double t_end)
-      : enabled_(enabled && isatty(STDERR_FILENO)), t_end_(t_end) {}
+  Progress(bool enabled, double t_end, std::function<void(double, long)> callback)
+      : enabled_(enabled && isatty(STDERR_FILENO)), t_end_(t_end), callback_(std::move(callback)) {}
   void update(double t, long steps) {
-    if (!enabled_) return;
+    if (!enabled_ && !callback_) return;
     const double elapsed = seconds_since(start_);
-    if (elapsed - last_ < 0.5) return;
+    if (callback_ && (!called_ || elapsed - last_called_ >= 0.5)) {
+      called_ = true;
+      last_called_ = elapsed;
+      callback_(t, steps);
+    }
+    if (!enabled_ || elapsed - last_ < 0.5) return;
     last_ = elapsed;
     const double fraction = t / t_end_;
     const double remaining = fraction > 0 ? elapsed * (1 - fraction) / fraction : 0.0;
@@ -72,6 +81,9 @@ class Progress {
  private:
   bool enabled_;
   double t_end_;
+  std::function<void(double, long)> callback_;
+  bool called_ = false;
+  double last_called_ = 0.0;
   Clock::time_point start_ = Clock::now();
   double last_ = 0.0;
   bool shown_ = false;
@@ -312,7 +324,7 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
       resume(open_output_dir(c_, options_, extends_finished)),
       system_owned(make_system(c_)),
       system(*system_owned),
-      progress(!options_.quiet, c_.run.t_end) {
+      progress(!options_.quiet, c_.run.t_end, options_.on_progress) {
   const auto& contacts = system.contacts();
   y0.resize(static_cast<std::size_t>(system.size()));
   system.initial_state(c.run.initial, y0);

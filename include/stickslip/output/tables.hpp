@@ -25,7 +25,7 @@ enum class ColumnType { real, integer, label };
 
 struct Column {
   std::string name{};  // CSV header; HDF5 dataset name (unless `dataset` is set)
-  std::string unit{};  // HDF5 attribute "unit" ("" for none)
+  std::string unit{};  // HDF5 attribute "units" ("" for none)
   ColumnType type = ColumnType::real;
   int digits = 10;                    // significant digits in CSV
   std::vector<std::string> labels{};  // ColumnType::label: the text of 0, 1, ...

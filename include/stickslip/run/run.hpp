@@ -3,6 +3,7 @@
 // observables to the output directory (the Monitor of STYLE.md).
 
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <span>
 
@@ -24,6 +25,10 @@ struct RunOptions {
   // Continue a checkpoint written by another code version (summary.json then
   // lists each attempt's version): for changes that leave the numbers alone.
   bool any_version = false;
+  // Called with the simulated time and the steps so far at the first output
+  // time, then twice a second at most, whether or not stderr is a terminal
+  // (the Python module's progress bar in a notebook).
+  std::function<void(double t, long steps)> on_progress{};
 };
 
 // A run started afresh (no restart, no overwrite) in an output directory that
