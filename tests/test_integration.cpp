@@ -7,7 +7,7 @@
 #include <random>
 
 #include "stickslip/case/reader.hpp"
-#include "stickslip/integrate/integrator.hpp"
+#include "stickslip/integrate/make_integrator.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/run/run.hpp"
 #include "temp_dir.hpp"

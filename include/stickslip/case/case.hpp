@@ -159,7 +159,7 @@ const char* to_string(OutputFormat);
 // The method whose rules (fixed step, orders) a case is validated against:
 // itself, or for "auto" imex, whose rules are the narrowest of the methods
 // "auto" chooses between (imex for a fixed step, else dirk or bdf; see
-// choose_method in integrator.hpp).
+// choose_method in integrate/make_integrator.hpp).
 Method validated_as(Method requested);
 
 }  // namespace stickslip

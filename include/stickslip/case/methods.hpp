@@ -52,7 +52,7 @@ struct LinearSolverInfo {
 };
 
 // Every method, in the order of the case file's documentation ("auto" is not
-// one: it chooses one, integrate/integrator.hpp).
+// one: it chooses one, integrate/make_integrator.hpp).
 std::span<const MethodInfo> methods();
 // Every linear solver ("auto", fft, is not one).
 std::span<const LinearSolverInfo> linear_solvers();
