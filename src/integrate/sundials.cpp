@@ -19,6 +19,17 @@ void check_created(const void* p, const char* call) {
   if (p == nullptr) throw IntegrationError(std::string(call) + " returned NULL");
 }
 
+int capture_exception(std::exception_ptr& slot) noexcept {
+  try {
+    throw;
+  } catch (const StageNotConverged&) {
+    return 1;
+  } catch (...) {
+    slot = std::current_exception();
+    return -1;
+  }
+}
+
 void print_solver_message(int error_code, const char* module, const char* function, char* msg,
                           void*) {
   constexpr int kTooMuchWork = -1;  // ARK_TOO_MUCH_WORK and CV_TOO_MUCH_WORK

@@ -1,6 +1,7 @@
 #pragma once
 // RAII ownership of SUNDIALS objects and the one exception boundary every
-// C callback goes through. Nothing here knows about the physics.
+// C callback goes through. Nothing here knows about the physics but its one
+// recoverable failure, StageNotConverged (model/system.hpp).
 
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_context.h>
@@ -62,15 +63,25 @@ inline std::span<double> as_span(N_Vector v) {
   return {N_VGetArrayPointer_Serial(v), static_cast<std::size_t>(N_VGetLength_Serial(v))};
 }
 
-// The exception boundary: runs `body` inside a C callback. Returns 0 on
-// success; on a C++ exception stores it in `slot` (rethrown by the adapter
-// after the SUNDIALS call returns) and returns −1, so no exception ever
-// crosses a SUNDIALS frame. It never returns 1 (recoverable): the failures a
-// smaller step cures are stage solves that do not converge or are refused,
-// and those return SUN_NLS_CONV_RECVR from the stage solver
-// (exact_stage_solver.cpp). The right-hand side, the roots and the Jacobian
-// are defined at every finite state, and a state that is not finite is a
-// failed run (run.cpp), not a step to retry.
+// The one exception boundary, as deal.II's call_and_possibly_capture_exception:
+// every C callback (right-hand sides, root functions, the stage solver) runs
+// its C++ code through guarded(), so no exception ever crosses a SUNDIALS
+// frame. It returns what SUNDIALS' callbacks return:
+//    0  success;
+//    1  recoverable: the body threw StageNotConverged (model/system.hpp), a
+//       stage solve that did not converge or was refused, which a smaller
+//       step cures; the package retries with a smaller step where its
+//       callback allows it (the stage solver turns 1 into SUN_NLS_CONV_RECVR,
+//       exact_stage_solver.cpp);
+//   −1  unrecoverable: any other exception, stored in `slot` and rethrown by
+//       the adapter after the SUNDIALS call returns.
+// The right-hand side, the roots and the Jacobian are defined at every finite
+// state, and a state that is not finite is a failed run (run.cpp), not a step
+// to retry: they throw nothing recoverable.
+
+// Inside a catch block: 1 for StageNotConverged, else stores the exception in
+// `slot` and returns −1.
+int capture_exception(std::exception_ptr& slot) noexcept;
 
 template <class Body>
 int guarded(std::exception_ptr& slot, Body&& body) noexcept {
@@ -78,8 +89,7 @@ int guarded(std::exception_ptr& slot, Body&& body) noexcept {
     body();
     return 0;
   } catch (...) {
-    slot = std::current_exception();
-    return -1;
+    return capture_exception(slot);
   }
 }
 
