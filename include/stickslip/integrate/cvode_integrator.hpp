@@ -27,7 +27,7 @@ class CvodeIntegrator final : public SteppingIntegrator {
   void interpolate(double t, N_Vector y) override;
   bool local_errors(N_Vector error, N_Vector weights) const override;
   const char* evolve_name() const override;
-  const char* flag_name(int flag) const override;
+  std::string flag_name(int flag) const override;
 
   int max_order_;
   CvodeMemPtr cvode_mem_;  // after what it refers to, so freed before it

@@ -11,6 +11,7 @@
 #include <span>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace stickslip {
 
@@ -21,6 +22,8 @@ class IntegrationError : public std::runtime_error {
 };
 
 // Throws IntegrationError naming `call` when a SUNDIALS call returns < 0.
+// Calls on an integrator's memory use SteppingIntegrator::check instead,
+// which adds the flag's name and the message SUNDIALS reported.
 void check(int flag, const char* call);
 // Throws when a constructor returned NULL.
 void check_created(const void* p, const char* call);
@@ -53,11 +56,29 @@ using CvodeMemPtr = std::unique_ptr<void, CvodeMemDeleter>;
 
 NVectorPtr make_serial_vector(std::span<const double> values, SUNContext ctx);
 
-// Error handler for ARKODE and CVODE: prints their messages like the default
-// handler, except "too much work" (flag −1 in both), which the adapters use
-// on purpose to return every poll interval of steps (case/methods.hpp).
-void print_solver_message(int error_code, const char* module, const char* function, char* msg,
-                          void* user_data);
+// The last error message SUNDIALS reported to one integrator, kept for the
+// IntegrationError that reports the failure: its error handler's user data.
+class SolverMessage {
+ public:
+  void record(std::string text) { text_ = std::move(text); }
+  // The message, forgotten once taken ("" if none since the last take).
+  std::string take() { return std::exchange(text_, {}); }
+
+ private:
+  std::string text_;
+};
+
+// Error handler for ARKODE and CVODE, its user data a SolverMessage: an
+// error's message, "[module] function: text", goes into it (and so into the
+// exception), not to stderr; warnings are printed like the default handler's.
+// "Too much work" (flag −1 in both), which the adapters use on purpose to
+// return every poll interval of steps (case/methods.hpp), is dropped.
+void record_solver_message(int error_code, const char* module, const char* function, char* msg,
+                           void* solver_message);
+
+// A package's name of a return flag, from ARKStepGetReturnFlagName or
+// CVodeGetReturnFlagName (which allocate it; freed here).
+std::string flag_name(char* (*package_name)(long int), int flag);
 
 inline std::span<double> as_span(N_Vector v) {
   return {N_VGetArrayPointer_Serial(v), static_cast<std::size_t>(N_VGetLength_Serial(v))};
