@@ -1,6 +1,6 @@
 #pragma once
 // CVODE adapter for bdf: variable-order BDF, its corrector solved exactly
-// (LatticeStageSolver) or by Newton with KLU on the sparse Jacobian.
+// (LatticeStageSolver).
 
 #include "stickslip/integrate/stepping_integrator.hpp"
 #include "stickslip/integrate/sundials.hpp"

@@ -35,8 +35,8 @@ struct StepRecord {
 struct IntegratorOptions {
   std::vector<int> watched_contacts;               // stick/slip root functions, none if empty
   std::function<void(const StepRecord&)> on_step;  // called after every accepted step, if set
-  // Called every poll interval of steps inside advance() (a few hundred; ten
-  // with KLU: case/methods.hpp); when it returns true,
+  // Called every poll interval of steps inside advance() (a few hundred: the
+  // linear solver's row, case/methods.cpp); when it returns true,
   // advance() returns at the end of the last accepted step. This is how a
   // run stalled inside one output interval still answers SIGINT/SIGTERM and
   // flushes its outputs.

@@ -91,8 +91,11 @@ class SteppingIntegrator : public Integrator {
   const MethodInfo& method_;
   const StageSolve stages_;  // how the implicit part is solved
   IntegratorOptions options_;
-  SunContext ctx_;  // first member of the adapters' hierarchy: destroyed last
-  NVectorPtr y_;    // the state handed to and from the package
+  // Declared before every SUNDIALS object of the hierarchy (these below and
+  // the adapters' memory, destroyed with the derived class, before this
+  // base's members), so the context goes after everything made in it.
+  SunContext ctx_;
+  NVectorPtr y_;  // the state handed to and from the package
   NVectorPtr atol_;
   std::vector<int> roots_;
   SpeedPeaks peaks_;  // sampled in root_fn
