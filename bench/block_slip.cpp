@@ -25,7 +25,7 @@
 #include <vector>
 
 #include "stickslip/case/reader.hpp"
-#include "stickslip/integrate/integrator.hpp"
+#include "stickslip/integrate/make_integrator.hpp"
 #include "stickslip/model/contacts.hpp"
 #include "stickslip/output/checkpoint.hpp"
 

@@ -30,9 +30,9 @@
 #include <map>
 #include <memory>
 
-#include "stickslip/integrate/integrator.hpp"
 #include "stickslip/integrate/lattice_solver.hpp"
 #include "stickslip/integrate/lattice_stage_solver.hpp"
+#include "stickslip/integrate/make_integrator.hpp"
 #include "stickslip/integrate/sundials.hpp"
 #include "stickslip/model/contacts.hpp"
 #include "stickslip/model/system.hpp"

@@ -77,11 +77,12 @@ py::dict read_events(const fs::path& dir) {
 
 // Runs the case; returns summary.json's text, or on SIGINT/SIGTERM
 // ("interrupted", signal, t). The GIL is released for the run. While it goes,
-// SIGINT and SIGTERM stop it at its next output time, as on the command line,
+// SIGINT and SIGTERM stop it at its next output time or, between output times,
+// within a poll interval of steps (a few hundred), as on the command line,
 // and with it every other run of the process (runs in threads). `progress`,
 // unless None, is called with (t, steps) at the first output time, then
-// twice a second at most (with the
-// GIL; an exception it raises is dropped: a progress bar must not stop a run).
+// twice a second at most (with the GIL; an exception it raises is dropped: a
+// progress bar must not stop a run).
 py::object run(const Case& c, const fs::path& out, bool overwrite, bool restart, bool any_version,
                bool quiet, const py::object& progress) {
   RunOptions options;

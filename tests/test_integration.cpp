@@ -1,13 +1,19 @@
 // Integrated runs checked against exact results: the exact stage solve, the
-// energy audit's convergence with tolerance, and steady sliding's exact μ.
+// energy audit's convergence with tolerance, steady sliding's exact μ, and how a
+// SUNDIALS failure is reported.
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <random>
 
 #include "stickslip/case/reader.hpp"
-#include "stickslip/integrate/integrator.hpp"
+#include "stickslip/integrate/make_integrator.hpp"
+#include "stickslip/integrate/sundials.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/run/run.hpp"
 #include "temp_dir.hpp"
@@ -173,4 +179,73 @@ TEST_CASE("driven output by output, a run keeps its energy balance at every outp
   CHECK_THROWS_AS(run.output(), std::logic_error);  // past the last output time
   const Summary s = run.finish();
   CHECK(std::abs(s.energy_residual) <= worst);  // t_end is one of the times checked
+}
+
+namespace {
+
+// What `f` writes to stderr (file descriptor 2), and the message of the
+// IntegrationError it throws ("" if none).
+struct Outcome {
+  std::string error, printed;
+};
+template <class F>
+Outcome capture_failure(F&& f) {
+  const stickslip::test::TempDir dir;
+  const auto path = dir.path / "stderr.txt";
+  std::fflush(stderr);
+  const int saved = ::dup(2);
+  const int file = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  ::dup2(file, 2);
+  ::close(file);
+  Outcome out;
+  try {
+    f();
+  } catch (const IntegrationError& e) {
+    out.error = e.what();
+  }
+  std::fflush(stderr);
+  ::dup2(saved, 2);
+  ::close(saved);
+  std::ifstream in(path);
+  out.printed.assign(std::istreambuf_iterator<char>(in), {});
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("a SUNDIALS failure names its flag and carries SUNDIALS' message, printing nothing",
+          "[errors]") {
+  const Case c = two_contact_case();
+  const System s = make_system(c);
+  std::vector<double> y(static_cast<std::size_t>(s.size()));
+  s.initial_state(InitialState::rest, y);
+  SECTION("a tolerance ARKStep refuses") {
+    SolverParams p = c.solver;
+    p.method = Method::dirk;
+    p.rtol = -1e-6;
+    const Outcome o = capture_failure([&] { make_integrator(s, p, y, 1e-3, {}); });
+    CHECK_THAT(o.error, Catch::Contains("ARKStepSVtolerances failed: ARK_ILL_INPUT") &&
+                            Catch::Contains("reltol < 0 illegal."));
+    CHECK(o.printed.empty());
+  }
+  SECTION("a tolerance CVODE refuses") {
+    SolverParams p = c.solver;
+    p.method = Method::bdf;
+    p.rtol = -1e-6;
+    const Outcome o = capture_failure([&] { make_integrator(s, p, y, 1e-3, {}); });
+    CHECK_THAT(o.error, Catch::Contains("CVodeSVtolerances failed: CV_ILL_INPUT") &&
+                            Catch::Contains("reltol < 0 illegal."));
+    CHECK(o.printed.empty());
+  }
+  SECTION("a step ARKStepEvolve refuses to take") {
+    SolverParams p = c.solver;
+    p.method = Method::imex;
+    // One rounding unit after t0: too close to start.
+    const double t0 = 1.0, t_stop = std::nextafter(t0, 2.0);
+    const Outcome o =
+        capture_failure([&] { make_integrator(s, p, y, t_stop, {}, t0)->advance(t_stop, y); });
+    CHECK_THAT(o.error, Catch::Contains("ARKStepEvolve failed at t = 1 s: ARK_TOO_CLOSE") &&
+                            Catch::Contains("tout too close to t0 to start integration."));
+    CHECK(o.printed.empty());
+  }
 }

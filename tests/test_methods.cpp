@@ -11,7 +11,7 @@
 #include <sstream>
 
 #include "stickslip/analysis/compare.hpp"
-#include "stickslip/integrate/integrator.hpp"
+#include "stickslip/integrate/make_integrator.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/run/run.hpp"
 #include "temp_dir.hpp"

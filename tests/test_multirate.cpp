@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "stickslip/integrate/contact_substeps.hpp"
-#include "stickslip/integrate/integrator.hpp"
+#include "stickslip/integrate/make_integrator.hpp"
 #include "stickslip/integrate/tolerances.hpp"
 #include "stickslip/run/run.hpp"
 #include "temp_dir.hpp"

@@ -32,7 +32,7 @@
 #include <cmath>
 #include <vector>
 
-#include "stickslip/integrate/integrator.hpp"
+#include "stickslip/integrate/make_integrator.hpp"
 #include "stickslip/model/system.hpp"
 
 using namespace stickslip;

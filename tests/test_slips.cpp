@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "stickslip/integrate/integrator.hpp"
+#include "stickslip/integrate/make_integrator.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/output/checkpoint.hpp"
 #include "stickslip/output/tables.hpp"

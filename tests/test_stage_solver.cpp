@@ -78,3 +78,16 @@ TEST_CASE("any other exception in a stage solve stops the integration with it", 
   REQUIRE(p.pending);
   CHECK_THROWS_AS(std::rethrow_exception(p.pending), std::out_of_range);
 }
+
+TEST_CASE("every callback's one boundary returns 0, 1 (recoverable) or -1", "[stage]") {
+  std::exception_ptr slot;
+  CHECK(guarded(slot, [] {}) == 0);
+  CHECK_FALSE(slot);
+  // A stage that did not converge is recoverable in any callback: nothing to
+  // rethrow, the package retries with a smaller step.
+  CHECK(guarded(slot, [] { throw StageNotConverged("too large a step"); }) == 1);
+  CHECK_FALSE(slot);
+  CHECK(guarded(slot, [] { throw std::out_of_range("index 7 of 3"); }) == -1);
+  REQUIRE(slot);
+  CHECK_THROWS_AS(std::rethrow_exception(slot), std::out_of_range);
+}

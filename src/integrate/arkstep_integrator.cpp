@@ -37,12 +37,13 @@ ArkStepIntegrator::ArkStepIntegrator(const System& system, const SolverParams& s
                                                     : full_rhs;
   arkode_mem_.reset(ARKStepCreate(fe, fi, t0, y_.get(), ctx_));
   check_created(arkode_mem_.get(), "ARKStepCreate");
+  // First, so that every later call's error message reaches its exception.
+  check(ARKStepSetErrHandlerFn(arkode_mem_.get(), record_solver_message, &message_),
+        "ARKStepSetErrHandlerFn");
   check(ARKStepSetUserData(arkode_mem_.get(), user_data()), "ARKStepSetUserData");
   atol_ = make_serial_vector(absolute_tolerances(system, solver), ctx_);
   check(ARKStepSVtolerances(arkode_mem_.get(), solver.rtol, atol_.get()), "ARKStepSVtolerances");
   check(ARKStepSetStopTime(arkode_mem_.get(), t_stop), "ARKStepSetStopTime");
-  check(ARKStepSetErrHandlerFn(arkode_mem_.get(), print_solver_message, nullptr),
-        "ARKStepSetErrHandlerFn");
 
   if (solver.method == Method::rk4) {  // ARKStep has no table of its own for it
     ARKodeButcherTable table = classic_rk4();
@@ -143,8 +144,8 @@ const char* ArkStepIntegrator::evolve_name() const {
   return "ARKStepEvolve";
 }
 
-const char* ArkStepIntegrator::flag_name(int flag) const {
-  return ARKStepGetReturnFlagName(flag);
+std::string ArkStepIntegrator::flag_name(int flag) const {
+  return stickslip::flag_name(ARKStepGetReturnFlagName, flag);
 }
 
 SolverStats ArkStepIntegrator::stats() const {

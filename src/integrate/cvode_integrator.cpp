@@ -14,13 +14,14 @@ CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solve
   y_ = make_serial_vector(y0, ctx_);
   cvode_mem_.reset(CVodeCreate(CV_BDF, ctx_));
   check_created(cvode_mem_.get(), "CVodeCreate");
+  // First, so that every later call's error message reaches its exception.
+  check(CVodeSetErrHandlerFn(cvode_mem_.get(), record_solver_message, &message_),
+        "CVodeSetErrHandlerFn");
   check(CVodeInit(cvode_mem_.get(), full_rhs, t0, y_.get()), "CVodeInit");
   check(CVodeSetUserData(cvode_mem_.get(), user_data()), "CVodeSetUserData");
   atol_ = make_serial_vector(absolute_tolerances(system, solver), ctx_);
   check(CVodeSVtolerances(cvode_mem_.get(), solver.rtol, atol_.get()), "CVodeSVtolerances");
   check(CVodeSetStopTime(cvode_mem_.get(), t_stop), "CVodeSetStopTime");
-  check(CVodeSetErrHandlerFn(cvode_mem_.get(), print_solver_message, nullptr),
-        "CVodeSetErrHandlerFn");
   check(CVodeSetMaxOrd(cvode_mem_.get(), max_order_), "CVodeSetMaxOrd");
   if (max_order_ >= 3) check(CVodeSetStabLimDet(cvode_mem_.get(), SUNTRUE), "CVodeSetStabLimDet");
 
@@ -96,8 +97,8 @@ const char* CvodeIntegrator::evolve_name() const {
   return "CVode";
 }
 
-const char* CvodeIntegrator::flag_name(int flag) const {
-  return CVodeGetReturnFlagName(flag);
+std::string CvodeIntegrator::flag_name(int flag) const {
+  return stickslip::flag_name(CVodeGetReturnFlagName, flag);
 }
 
 SolverStats CvodeIntegrator::stats() const {

@@ -57,15 +57,14 @@ int solve(SUNNonlinearSolver nls, N_Vector, N_Vector correction, N_Vector weight
     N_VLinearSum(1.0, predictor, -rl1, zn1, z);
   }
   ++c.stats->solves;
-  try {
+  const int outcome = guarded(*c.pending, [&] {
     c.stats->last_iterations = c.solve(t, gamma, as_span(predictor), as_span(weights), as_span(z));
-  } catch (const StageNotConverged&) {
+  });
+  if (outcome > 0) {
     ++c.stats->failures;
     return SUN_NLS_CONV_RECVR;  // the integrator retries with a smaller step
-  } catch (...) {
-    *c.pending = std::current_exception();  // a bug: stop, and say what it was
-    return SUN_NLS_EXT_FAIL;
   }
+  if (outcome < 0) return SUN_NLS_EXT_FAIL;  // a bug: stop, and say what it was
   c.stats->iterations += c.stats->last_iterations;
   N_VLinearSum(1.0, z, -1.0, predictor, correction);
   return SUN_NLS_SUCCESS;

@@ -11,13 +11,15 @@
 
 namespace stickslip {
 
-// "<call> failed at t = ... s: <flag>; largest weighted local errors: 3.2 at w^x of node (4, 7, 0),
-// ..."
-inline std::string describe_failure(const System& system, const char* call, const char* flag_name,
-                                    double t, N_Vector error, N_Vector weights, bool have_errors) {
+// "<call> failed at t = ... s: <flag>: <SUNDIALS' message>; largest weighted local errors: 3.2
+// at w^x of node (4, 7, 0), ..."
+inline std::string describe_failure(const System& system, const char* call,
+                                    const std::string& flag_name, const std::string& said, double t,
+                                    N_Vector error, N_Vector weights, bool have_errors) {
   char buf[96];
   std::snprintf(buf, sizeof buf, " failed at t = %.9g s: ", t);
   std::string msg = std::string(call) + buf + flag_name;
+  if (!said.empty()) msg += ": " + said;
   if (!have_errors) return msg;
   N_VProd(error, weights, error);
   const auto e = as_span(error);

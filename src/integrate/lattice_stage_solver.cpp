@@ -24,7 +24,7 @@ namespace stickslip {
 //     s = s0 + γ G a_c(s),   s0 = P w0.
 // Split G = ḡ (I + H), ḡ its mean self term. With β = s0 + γ ḡ H a_c(s), each
 // contact's own equation s_i − γ ḡ a_c(s_i) = β_i is imex's scalar stage
-// equation, solved exactly in log-speed: s_i = Σ_i(β_i) (System::contact_stage),
+// equation, solved exactly in log-speed: s_i = Σ_i(β_i) (System::site_stage),
 // and a_c(s) = (Σ(β) − β)/(γ ḡ). What remains is
 //     F(β) = β − s0 − H (Σ(β) − β) = 0,   ∂F/∂β = I + H (I − E),
 // E = blockdiag(∂Σ_i/∂β_i). E is bounded (‖E_i‖ ≤ 1 where the force rises with

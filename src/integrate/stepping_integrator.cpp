@@ -78,16 +78,27 @@ void SteppingIntegrator::make_lattice_stages(StagePackage package) {
 }
 
 double SteppingIntegrator::local_error_norm() {
-  if (!method_.error_estimate || !local_errors(scratch_error_.get(), scratch_weights_.get()))
+  if (!method_.error_estimate || !local_errors(scratch_error_.get(), scratch_weights_.get())) {
+    message_.take();  // no estimate is no failure
     return std::numeric_limits<double>::quiet_NaN();
+  }
   return N_VWrmsNorm(scratch_error_.get(), scratch_weights_.get());
 }
 
 void SteppingIntegrator::throw_failure(int flag, double t) {
+  const std::string said = message_.take();  // before local_errors may report
   NVectorPtr err(N_VClone(y_.get())), weights(N_VClone(y_.get()));
   const bool have = local_errors(err.get(), weights.get());
-  throw IntegrationError(
-      describe_failure(system_, evolve_name(), flag_name(flag), t, err.get(), weights.get(), have));
+  message_.take();
+  throw IntegrationError(describe_failure(system_, evolve_name(), flag_name(flag), said, t,
+                                          err.get(), weights.get(), have));
+}
+
+void SteppingIntegrator::check(int flag, const char* call) {
+  if (flag >= 0) return;
+  std::string what = std::string(call) + " failed: " + flag_name(flag);
+  if (const std::string said = message_.take(); !said.empty()) what += ": " + said;
+  throw IntegrationError(what);
 }
 
 void SteppingIntegrator::add_stage_stats(SolverStats& s) const {
@@ -114,7 +125,9 @@ void SteppingIntegrator::describe_solve(nlohmann::json& d) const {
 }
 
 void SteppingIntegrator::rethrow_pending() {
-  if (pending_) std::rethrow_exception(std::exchange(pending_, nullptr));
+  if (!pending_) return;
+  message_.take();  // SUNDIALS' word on the callback's failure: the exception says more
+  std::rethrow_exception(std::exchange(pending_, nullptr));
 }
 
 double SteppingIntegrator::advance(double t_out, std::span<double> y) {

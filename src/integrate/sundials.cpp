@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <type_traits>
 
@@ -19,12 +20,36 @@ void check_created(const void* p, const char* call) {
   if (p == nullptr) throw IntegrationError(std::string(call) + " returned NULL");
 }
 
-void print_solver_message(int error_code, const char* module, const char* function, char* msg,
-                          void*) {
+int capture_exception(std::exception_ptr& slot) noexcept {
+  try {
+    throw;
+  } catch (const StageNotConverged&) {
+    return 1;
+  } catch (...) {
+    slot = std::current_exception();
+    return -1;
+  }
+}
+
+void record_solver_message(int error_code, const char* module, const char* function, char* msg,
+                           void* solver_message) {
   constexpr int kTooMuchWork = -1;  // ARK_TOO_MUCH_WORK and CV_TOO_MUCH_WORK
   if (error_code == kTooMuchWork) return;
+  if (error_code < 0 && solver_message != nullptr) {
+    static_cast<SolverMessage*>(solver_message)
+        ->record("[" + std::string(module) + "] " + function + ": " + msg);
+    return;
+  }
   std::fprintf(stderr, "[%s %s] %s: %s\n", module, error_code < 0 ? "ERROR" : "WARNING", function,
                msg);
+}
+
+std::string flag_name(char* (*package_name)(long int), int flag) {
+  char* name = package_name(flag);
+  if (name == nullptr) return "flag " + std::to_string(flag);
+  std::string owned(name);
+  std::free(name);
+  return owned;
 }
 
 SunContext::SunContext() {

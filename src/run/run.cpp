@@ -17,6 +17,7 @@
 #include <utility>
 
 #include "stickslip/analysis/events.hpp"
+#include "stickslip/integrate/make_integrator.hpp"
 #include "stickslip/integrate/sundials.hpp"
 #include "stickslip/integrate/tolerances.hpp"
 #include "stickslip/model/contacts.hpp"

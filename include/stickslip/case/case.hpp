@@ -83,7 +83,7 @@ struct SolverParams {
   Method method = Method::automatic;                     // "auto": choose_method() picks
   LinearSolver linear_solver = LinearSolver::automatic;  // dirk and bdf only
   int order = 0;      // 0: the method's default (bdf: 2, see MODEL.md §12)
-  double step = 0.0;  // > 0: fixed step [s], adaptivity off (ARKStep methods and rk4)
+  double step = 0.0;  // > 0: fixed step [s], adaptivity off (ARKStep's methods)
   double rtol = 1e-6;
   // 0 (unset): rtol times the case's own scale (integrate/tolerances.hpp), so
   // that rtol alone controls the error.
@@ -162,7 +162,7 @@ const char* to_string(OutputFormat);
 // The method whose rules (fixed step, orders) a case is validated against:
 // itself, or for "auto" imex, whose rules are the narrowest of the methods
 // "auto" chooses between (imex for a fixed step, else dirk or bdf; see
-// choose_method in integrator.hpp).
+// choose_method in integrate/make_integrator.hpp).
 Method validated_as(Method requested);
 
 }  // namespace stickslip

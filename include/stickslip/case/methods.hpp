@@ -2,8 +2,10 @@
 // The integration methods a case can ask for ([solver] method) and the linear
 // solvers of the implicit ones ([solver] linear_solver), one row each. A row
 // is everything the case reader checks, the SUNDIALS adapters set up and
-// summary.json says about a method: adding a method is a row here and its
-// set-up in the adapter of its package (integrate/).
+// summary.json says about a method: adding a method is its enumerator in
+// case.hpp's Method, its row in methods.cpp, its set-up in the adapter of its
+// package (integrate/; a package of its own: a stepper, and its case in
+// make_integrator.cpp), and its line in the README's [solver] documentation.
 
 #include <span>
 
@@ -52,7 +54,7 @@ struct LinearSolverInfo {
 };
 
 // Every method, in the order of the case file's documentation ("auto" is not
-// one: it chooses one, integrate/integrator.hpp).
+// one: it chooses one, integrate/make_integrator.hpp).
 std::span<const MethodInfo> methods();
 // Every linear solver ("auto", fft, is not one).
 std::span<const LinearSolverInfo> linear_solvers();

@@ -26,7 +26,7 @@ class ArkStepIntegrator final : public SteppingIntegrator {
   void interpolate(double t, N_Vector y) override;
   bool local_errors(N_Vector error, N_Vector weights) const override;
   const char* evolve_name() const override;
-  const char* flag_name(int flag) const override;
+  std::string flag_name(int flag) const override;
 
   ArkodeMemPtr arkode_mem_;  // after what it refers to, so freed before it
 };

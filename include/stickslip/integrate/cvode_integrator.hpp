@@ -1,6 +1,6 @@
 #pragma once
 // CVODE adapter for bdf: variable-order BDF, its corrector solved exactly
-// (LatticeStageSolver) or by Newton with KLU on the sparse Jacobian.
+// (LatticeStageSolver).
 
 #include "stickslip/integrate/stepping_integrator.hpp"
 #include "stickslip/integrate/sundials.hpp"
@@ -27,7 +27,7 @@ class CvodeIntegrator final : public SteppingIntegrator {
   void interpolate(double t, N_Vector y) override;
   bool local_errors(N_Vector error, N_Vector weights) const override;
   const char* evolve_name() const override;
-  const char* flag_name(int flag) const override;
+  std::string flag_name(int flag) const override;
 
   int max_order_;
   CvodeMemPtr cvode_mem_;  // after what it refers to, so freed before it

@@ -42,7 +42,8 @@ using ExactStageSolve =
 enum class StagePackage { arkstep, cvode };
 
 // `stats` must outlive the solver.
-// Any exception other than StageNotConverged lands in `pending` and fails the
+// The solve runs through guarded (sundials.hpp): StageNotConverged is a
+// recoverable failure, any other exception lands in `pending` and fails the
 // step unrecoverably; the adapter rethrows it after the SUNDIALS call returns.
 NonlinearSolverPtr make_exact_stage_solver(SUNContext ctx, StagePackage package,
                                            ExactStageSolve solve, StageStats& stats,

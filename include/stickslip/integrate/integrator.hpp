@@ -1,9 +1,9 @@
 #pragma once
-// The integrators a case can choose ([solver] method), behind one interface.
-// The adapters own the SUNDIALS handles (the package's in each adapter, the
-// stage and linear solvers in SteppingIntegrator, which they share); the
-// physics is the System's. What each method is, and how its implicit part is
-// solved, is its row in case/methods.hpp.
+// The integrators a case can choose ([solver] method), behind one interface
+// (make_integrator.hpp makes them). The adapters own the SUNDIALS handles (the package's in each
+// adapter, the stage and linear solvers in SteppingIntegrator, which they share); the physics is
+// the System's. What each method is, and how its implicit part is solved, is its row in
+// case/methods.hpp.
 
 #include <functional>
 #include <memory>
@@ -35,8 +35,8 @@ struct StepRecord {
 struct IntegratorOptions {
   std::vector<int> watched_contacts;               // stick/slip root functions, none if empty
   std::function<void(const StepRecord&)> on_step;  // called after every accepted step, if set
-  // Called every poll interval of steps inside advance() (a few hundred; ten
-  // with KLU: case/methods.hpp); when it returns true,
+  // Called every poll interval of steps inside advance() (a few hundred: the
+  // linear solver's row, case/methods.cpp); when it returns true,
   // advance() returns at the end of the last accepted step. This is how a
   // run stalled inside one output interval still answers SIGINT/SIGTERM and
   // flushes its outputs.
@@ -78,25 +78,5 @@ class Integrator {
   // Method, order, tolerances or fixed step: how the result was obtained.
   virtual nlohmann::json description() const = 0;
 };
-
-// The method "auto" runs, and why (summary.json says both). The rule follows
-// the work-precision benchmarks at equal accuracy against converged runs
-// (docs/PERFORMANCE.md): where no contact can stick-slip at the drive speed
-// (every v* ≥ v: steady sliding, creep) bdf wins by 40–100×, its steps
-// growing to ~1e-4 s; where some can, dirk: once the absolute tolerances
-// follow rtol (tolerances.hpp) its slips are as accurate as imex's, whose
-// steps the explicit lattice holds below ~2e-7 s and the creep far below.
-// (dirk's late slips of earlier measurements were the fixed velocity
-// tolerance of 1e-7 m/s.) A fixed step keeps imex.
-struct MethodChoice {
-  Method method;
-  std::string reason;
-};
-MethodChoice choose_method(const System& system, const SolverParams& solver);
-
-// Starts from y0 at t0 (0 for a run; later for a restart or a test).
-std::unique_ptr<Integrator> make_integrator(const System& system, const SolverParams& solver,
-                                            std::span<const double> y0, double t_stop,
-                                            IntegratorOptions options, double t0 = 0.0);
 
 }  // namespace stickslip

@@ -35,8 +35,9 @@ class LatticeStageSolver {
   // velocity-weakening branch and starts Newton; `weights` are the error
   // weights 1/(rtol |y| + atol): the contacts' speeds are converged to 1e-6 of
   // the integrator's tolerance. Returns the Newton iterations on the
-  // contacts' coupled speeds; throws std::runtime_error when they do not
-  // converge (the integrator then retries with a smaller step).
+  // contacts' coupled speeds; throws StageNotConverged (model/system.hpp)
+  // when they do not converge or a stage is refused (kMaxGammaLambda), and
+  // the integrator then retries with a smaller step.
   long solve(double t, double gamma, std::span<const double> predictor,
              std::span<const double> weights, std::span<double> z);
 

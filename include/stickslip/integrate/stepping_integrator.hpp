@@ -19,6 +19,7 @@
 #include <exception>
 #include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "stickslip/integrate/exact_stage_solver.hpp"
@@ -56,7 +57,7 @@ class SteppingIntegrator : public Integrator {
   virtual bool local_errors(N_Vector error, N_Vector weights) const = 0;
   // The package's name of its evolve call and of a return flag, for messages.
   virtual const char* evolve_name() const = 0;
-  virtual const char* flag_name(int flag) const = 0;
+  virtual std::string flag_name(int flag) const = 0;
 
   // Call once y_ exists (it sizes the scratch vectors).
   void init_stepping(std::size_t watched_contacts);
@@ -75,6 +76,9 @@ class SteppingIntegrator : public Integrator {
   // Weighted RMS norm of the last step's local error estimate; NaN if none.
   double local_error_norm();
   [[noreturn]] void throw_failure(int flag, double t);
+  // check() for the calls on this integrator's package: the IntegrationError
+  // names the call, the flag and the message SUNDIALS reported.
+  void check(int flag, const char* call);
   // The stage solver's part of the statistics (exact stage solves only).
   void add_stage_stats(SolverStats& s) const;
   // summary.json's linear solver, and the fixed step or the tolerances.
@@ -87,8 +91,11 @@ class SteppingIntegrator : public Integrator {
   const MethodInfo& method_;
   const StageSolve stages_;  // how the implicit part is solved
   IntegratorOptions options_;
-  SunContext ctx_;  // first member of the adapters' hierarchy: destroyed last
-  NVectorPtr y_;    // the state handed to and from the package
+  // Declared before every SUNDIALS object of the hierarchy (these below and
+  // the adapters' memory, destroyed with the derived class, before this
+  // base's members), so the context goes after everything made in it.
+  SunContext ctx_;
+  NVectorPtr y_;  // the state handed to and from the package
   NVectorPtr atol_;
   std::vector<int> roots_;
   SpeedPeaks peaks_;  // sampled in root_fn
@@ -96,6 +103,7 @@ class SteppingIntegrator : public Integrator {
   std::unique_ptr<LatticeStageSolver> lattice_stages_;
   NonlinearSolverPtr stage_solver_;
   std::exception_ptr pending_;
+  SolverMessage message_;  // the error handler's user data (record_solver_message)
 
  private:
   double advance_normal(double t_out, std::span<double> y);

@@ -124,8 +124,9 @@ class System {
   // the solution on return, so only the contacts' entries are touched: the
   // caller forms b in place, one pass over the state. The predictor picks among
   // several roots. Returns the number of scalar Newton iterations; throws
-  // std::runtime_error if one fails. Per site: a patch's sites are independent
-  // here (their coupling is the lattice's, explicit in imex).
+  // StageNotConverged if one gives a speed that is not finite. Per site: a
+  // patch's sites are independent here (their coupling is the lattice's,
+  // explicit in imex).
   long solve_implicit_stage(double gamma, std::span<const double> predictor,
                             std::span<double> z) const;
 
@@ -241,7 +242,10 @@ class System {
   // The lattice's springs and dashpots (MODEL.md §3, §5), described once:
   // the forces, the Jacobian, the dissipation and the energy all walk the
   // lattice through these, in this order (system.cpp). A new lattice term is
-  // a change here and in the per-term lambdas of those four.
+  // its coefficient (a member here, set in the constructor) and its lambda
+  // in each of those four; a term between the top layer and the plate also
+  // enters friction_force, power_in and contact_impulse, which read the
+  // drive's springs and dashpots directly.
   //  - faces(iz, f): f(i, j) for every face of layer iz, node by node (iy
   //    slowest), its +x, +y and (below the top) +z neighbour j of node i;
   //  - cells(iz, f): f(corner) for every cell between layers iz and iz + 1,

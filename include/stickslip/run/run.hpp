@@ -50,8 +50,10 @@ struct Interrupted {
   double t = 0.0;
 };
 
-// SIGINT and SIGTERM then stop a run at its next output time instead of
-// killing it.
+// SIGINT and SIGTERM then stop a run, instead of killing it, at its next
+// output time or sooner: the integrators poll between output times every
+// poll interval of steps (a few hundred: case/methods.cpp), and a stop there
+// ends the run at that step's end.
 void install_stop_handlers();
 
 // The same for the span of one run in a program that has handlers of its own

@@ -1,12 +1,12 @@
-#include "stickslip/integrate/integrator.hpp"
+#include "stickslip/integrate/make_integrator.hpp"
 
-#include <algorithm>
-#include <cmath>
 #include <stdexcept>
+#include <string>
 
 #include "stickslip/integrate/arkstep_integrator.hpp"
 #include "stickslip/integrate/cvode_integrator.hpp"
 #include "stickslip/integrate/multirate_integrator.hpp"
+#include "stickslip/integrate/tolerances.hpp"
 
 namespace stickslip {
 
@@ -49,26 +49,6 @@ std::unique_ptr<Integrator> make_integrator(const System& system, const SolverPa
                                                    std::move(options));
   }
   throw std::logic_error("make_integrator: no adapter for the method's package");
-}
-
-SolverStats& operator+=(SolverStats& a, const SolverStats& b) {
-  a.steps += b.steps;
-  a.step_attempts += b.step_attempts;
-  a.rhs_explicit += b.rhs_explicit;
-  a.rhs_implicit += b.rhs_implicit;
-  a.newton_iterations += b.newton_iterations;
-  a.convergence_failures += b.convergence_failures;
-  a.linear_setups += b.linear_setups;
-  a.jacobian_evaluations += b.jacobian_evaluations;
-  a.krylov_iterations += b.krylov_iterations;
-  a.error_test_failures += b.error_test_failures;
-  a.root_evaluations += b.root_evaluations;
-  a.substeps += b.substeps;
-  a.substep_failures += b.substep_failures;
-  a.fast_contact_steps += b.fast_contact_steps;
-  a.coupling_iterations += b.coupling_iterations;
-  if (b.last_step != 0.0) a.last_step = b.last_step;
-  return a;
 }
 
 }  // namespace stickslip

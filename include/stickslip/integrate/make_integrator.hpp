@@ -1,0 +1,37 @@
+#pragma once
+// Which integrator a case runs, and making it: the factory apart from the
+// interface (integrator.hpp), as Cantera keeps newIntegrator apart from
+// Integrator, so the adapters, which implement the interface, are included
+// only here.
+
+#include <memory>
+#include <span>
+#include <string>
+
+#include "stickslip/case/case.hpp"
+#include "stickslip/integrate/integrator.hpp"
+#include "stickslip/model/system.hpp"
+
+namespace stickslip {
+
+// The method "auto" runs, and why (summary.json says both). The rule follows
+// the work-precision benchmarks at equal accuracy against converged runs
+// (docs/PERFORMANCE.md): where no contact can stick-slip at the drive speed
+// (every v* ≥ v: steady sliding, creep) bdf wins by 40–100×, its steps
+// growing to ~1e-4 s; where some can, dirk: once the absolute tolerances
+// follow rtol (tolerances.hpp) its slips are as accurate as imex's, whose
+// steps the explicit lattice holds below ~2e-7 s and the creep far below.
+// (dirk's late slips of earlier measurements were the fixed velocity
+// tolerance of 1e-7 m/s.) A fixed step keeps imex.
+struct MethodChoice {
+  Method method;
+  std::string reason;
+};
+MethodChoice choose_method(const System& system, const SolverParams& solver);
+
+// Starts from y0 at t0 (0 for a run; later for a restart or a test).
+std::unique_ptr<Integrator> make_integrator(const System& system, const SolverParams& solver,
+                                            std::span<const double> y0, double t_stop,
+                                            IntegratorOptions options, double t0 = 0.0);
+
+}  // namespace stickslip
