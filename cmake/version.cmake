@@ -11,8 +11,9 @@ execute_process(COMMAND git -C ${SOURCE_DIR} status --porcelain --untracked-file
 if(NOT dirty STREQUAL "")
   set(commit "${commit}-modified")
 endif()
-set(content "#pragma once\nnamespace stickslip {\ninline constexpr const char* kVersion = \"${VERSION}\";\n"
-            "inline constexpr const char* kGitCommit = \"${commit}\";\n}\n")
+string(CONCAT content "#pragma once\nnamespace stickslip {\n"
+       "inline constexpr const char* kVersion = \"${VERSION}\";\n"
+       "inline constexpr const char* kGitCommit = \"${commit}\";\n}\n")
 if(EXISTS ${OUTPUT})
   file(READ ${OUTPUT} old)
 else()
