@@ -169,7 +169,7 @@ std::string project_version() {
 
 }  // namespace
 
-TEST_CASE("--version prints the version and the git commit, exit 0", "[cli]") {
+TEST_CASE("stickslip --version prints the version and the git commit, exit 0", "[cli]") {
   Sandbox box;
   const Result r = box.run({"--version"});
   INFO("stdout: " << r.out << "stderr: " << r.err);

@@ -224,8 +224,11 @@ TEST_CASE("fig8.py, fig10.py, traces.py and pair_separation.py plot what the run
                          Catch::Contains("diagonal separation 2.83 a"));
 }
 
-TEST_CASE("every plot script answers --help with its usage, a missing directory with not found",
-          "[plots]") {
+// [slow]: 24 Python start-ups, ~1 min on two busy cores.
+TEST_CASE(
+    "every plot script and example answers --help with its usage, a missing directory with "
+    "not found",
+    "[slow][plots]") {
   Sandbox box("stickslip_plots_");
   // Each script with as many directories as it needs, all missing.
   const std::vector<std::pair<std::string, std::string>> scripts{
@@ -251,15 +254,13 @@ TEST_CASE("every plot script answers --help with its usage, a missing directory 
   CHECK(listed == scripts.size());
   for (const auto& [script, dirs] : scripts) {
     INFO(script);
-    for (const char* flag : {"--help", "-h"}) {
-      const auto help = python(box, script, flag);
-      INFO(flag << ": " << help.out);
-      CHECK(help.code == 0);
-      // Its usage line, naming the script.
-      CHECK_THAT(help.out,
-                 Catch::Contains("usage", Catch::CaseSensitive::No) && Catch::Contains(script));
-      CHECK_THAT(help.out, !Catch::Contains("error"));
-    }
+    const auto help = python(box, script, "--help");
+    INFO("--help: " << help.out);
+    CHECK(help.code == 0);
+    // Its usage line, naming the script.
+    CHECK_THAT(help.out,
+               Catch::Contains("usage", Catch::CaseSensitive::No) && Catch::Contains(script));
+    CHECK_THAT(help.out, !Catch::Contains("error:"));
     const auto missing = python(box, script, dirs);
     INFO(missing.out);
     CHECK(missing.code == 2);
@@ -267,6 +268,26 @@ TEST_CASE("every plot script answers --help with its usage, a missing directory 
     // Nothing written but the captured output (plot.txt).
     CHECK(std::distance(fs::directory_iterator(box.work), fs::directory_iterator()) == 1);
   }
+  // The examples too: runnable, and --help prints their usage without running anything.
+  std::size_t examples = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(STICKSLIP_SOURCE_DIR) / "examples")) {
+    if (entry.path().extension() != ".py") continue;
+    const std::string name = entry.path().filename().string();
+    INFO(name);
+    CHECK(slurp(entry.path()).rfind("#!/usr/bin/python3\n", 0) == 0);
+    CHECK((fs::status(entry.path()).permissions() & fs::perms::owner_exec) != fs::perms::none);
+    const std::string cmd = "cd " + test::quote(box.work.string()) + " && " +
+                            test::quote(entry.path().string()) + " --help >help.txt 2>&1";
+    const int status = std::system(cmd.c_str());
+    const std::string help = slurp(box.work / "help.txt");
+    INFO(help);
+    CHECK((WIFEXITED(status) && WEXITSTATUS(status) == 0));
+    CHECK_THAT(help, Catch::Contains("Usage: ") && Catch::Contains("examples/" + name));
+    fs::remove(box.work / "help.txt");
+    CHECK(std::distance(fs::directory_iterator(box.work), fs::directory_iterator()) == 1);
+    ++examples;
+  }
+  CHECK(examples == 2);
 }
 
 TEST_CASE("run_tables.py reads the same tables from a run's CSV files and from its run.h5",
