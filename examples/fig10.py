@@ -5,7 +5,7 @@ stick-slips on its own), their x-velocities against time.
 
 Usage: PYTHONPATH=build/python /usr/bin/python3 examples/fig10.py [PNG]
 
-writes PNG (default fig10.png); about 10 s of computing.
+writes PNG (default fig10.png); about 25 s on 2 cores (two runs, 13 s of CPU time).
 """
 import sys
 
