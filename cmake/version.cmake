@@ -1,5 +1,5 @@
-# Writes version.hpp with the current git commit (and whether the tree was
-# modified), rewriting the file only when it changes so nothing rebuilds needlessly.
+# Writes version.hpp with the version (VERSION, from project()) and the current
+# git commit (and whether the tree was modified), rewriting the file only when it changes so nothing rebuilds needlessly.
 execute_process(COMMAND git -C ${SOURCE_DIR} rev-parse HEAD
                 OUTPUT_VARIABLE commit OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET
                 RESULT_VARIABLE rc)
@@ -11,7 +11,9 @@ execute_process(COMMAND git -C ${SOURCE_DIR} status --porcelain --untracked-file
 if(NOT dirty STREQUAL "")
   set(commit "${commit}-modified")
 endif()
-set(content "#pragma once\nnamespace stickslip {\ninline constexpr const char* kGitCommit = \"${commit}\";\n}\n")
+string(CONCAT content "#pragma once\nnamespace stickslip {\n"
+       "inline constexpr const char* kVersion = \"${VERSION}\";\n"
+       "inline constexpr const char* kGitCommit = \"${commit}\";\n}\n")
 if(EXISTS ${OUTPUT})
   file(READ ${OUTPUT} old)
 else()

@@ -3,7 +3,7 @@
 the contact density θ on a 10×10×6 block at v = 1 mm/s, two seeds per θ, the
 runs side by side in threads (a run releases the GIL).
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/mu_theta.py [PNG]
+Usage: PYTHONPATH=build/python /usr/bin/python3 examples/mu_theta.py [PNG]
 
 writes PNG (default mu_theta.png); about a minute on two cores. On a block
 this small and this short the numbers are rough (docs/RESULTS.md has the
@@ -13,7 +13,11 @@ import os
 import sys
 from concurrent.futures import ThreadPoolExecutor
 
-import matplotlib
+if "-h" in sys.argv[1:] or "--help" in sys.argv[1:]:
+    print(__doc__.strip())
+    sys.exit(0)
+
+import matplotlib  # noqa: E402
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402

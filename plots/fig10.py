@@ -14,6 +14,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from _command_line import arguments, directories  # noqa: E402
 from run_tables import read_table, where  # noqa: E402
 
 
@@ -37,11 +38,9 @@ def load(out: Path):
 
 
 def main() -> int:
-    if len(sys.argv) not in (3, 4):
-        print(__doc__.strip(), file=sys.stderr)
-        return 2
-    outs = [Path(sys.argv[1]), Path(sys.argv[2])]
-    png = Path(sys.argv[3]) if len(sys.argv) == 4 else outs[1].parent / "fig10.png"
+    args = arguments(__doc__, 2, 3)
+    outs = directories(args[:2])
+    png = Path(args[2]) if len(args) == 3 else outs[1].parent / "fig10.png"
     fig, axes = plt.subplots(2, 2, figsize=(10, 5), sharex="col")
     for col, (out, name) in enumerate(zip(outs, "ab")):
         summary, t, contacts = load(out)

@@ -1,11 +1,12 @@
 #!/usr/bin/python3
-"""The paper's Fig. 8: friction force per unit coverage, F_f/θ, against time at
-v = 1e-3 m/s, for a low and a high coverage (small fluctuations against
-block-scale stick-slip).
+"""The paper's Fig. 8: friction force per unit coverage, F_f/θ, against time
+(at v = 1e-3 m/s in the paper), for a low and a high coverage (small
+fluctuations against block-scale stick-slip).
 
 Usage: /usr/bin/python3 plots/fig8.py OUT_LOW OUT_HIGH [PNG]
        (outputs of cases/fig8_low.toml and cases/fig8_high.toml)
-       -> PNG (default OUT_HIGH/../fig8.png) and the same name .pdf
+       -> PNG (default OUT_HIGH/../fig8.png) and the same name .pdf;
+          the title names the lattice and v of the runs (summary.json)
 """
 import json
 import sys
@@ -15,6 +16,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from _command_line import arguments, directories  # noqa: E402
 from run_tables import read_table, where  # noqa: E402
 
 
@@ -32,14 +34,20 @@ def load(out: Path):
 
 
 def main() -> int:
-    if len(sys.argv) not in (3, 4):
-        print(__doc__.strip(), file=sys.stderr)
-        return 2
-    low, high = Path(sys.argv[1]), Path(sys.argv[2])
-    png = Path(sys.argv[3]) if len(sys.argv) == 4 else high.parent / "fig8.png"
+    args = arguments(__doc__, 2, 3)
+    low, high = directories(args[:2])
+    png = Path(args[2]) if len(args) == 3 else high.parent / "fig8.png"
     fig, axes = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+    lattices, velocities = [], []
     for ax, out in zip(axes, (low, high)):
         summary, theta, rows = load(out)
+        case = summary.get("case", {})
+        size = case.get("lattice", {})
+        lattice = "×".join(str(size.get(n, "?")) for n in ("nx", "ny", "nz"))
+        velocity = case.get("drive", {}).get("velocity")
+        for seen, value in ((lattices, lattice), (velocities, velocity)):
+            if value is not None and value not in seen:
+                seen.append(value)
         t_avg = summary.get("average_from", 0.0)
         t = [r[0] * 1e3 for r in rows]
         f = [r[1] / theta for r in rows]
@@ -60,7 +68,13 @@ def main() -> int:
                      color="red" if flag else "black")
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("time (ms)")
-    fig.suptitle("Fig. 8: friction force per coverage, v = 1e-3 m/s", fontsize=10)
+    title = "Fig. 8: friction force per coverage"
+    if lattices:
+        title += ", " + " and ".join(lattices)
+    if velocities:
+        title += ", v = " + " and ".join(f"{v:g}" for v in velocities) + " m/s"
+    print(f"title: {title}")
+    fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(png, dpi=130)
     fig.savefig(png.with_suffix(".pdf"))

@@ -25,6 +25,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from _command_line import arguments, directories  # noqa: E402
 import numpy as np  # noqa: E402
 
 LOW, HIGH = 0.04, 0.498
@@ -64,10 +65,7 @@ def mean_sem(values):
 
 
 def main() -> int:
-    if len(sys.argv) != 2:
-        print(__doc__, file=sys.stderr)
-        return 2
-    sweep_dir = Path(sys.argv[1])
+    (sweep_dir,) = directories(arguments(__doc__, 1, 1))
     pts = points(sweep_dir)
     if not pts:
         raise SystemExit(f"error: {sweep_dir}: no finished point (no */summary.json)")

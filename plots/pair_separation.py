@@ -12,12 +12,12 @@ import csv
 import json
 import math
 import sys
-from pathlib import Path
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from _command_line import arguments, directories  # noqa: E402
 from run_tables import read_table, where  # noqa: E402
 
 
@@ -31,10 +31,7 @@ def number(text: str) -> float:
 
 
 def main() -> int:
-    if len(sys.argv) != 2:
-        print(__doc__.strip(), file=sys.stderr)
-        return 2
-    sweep = Path(sys.argv[1])
+    (sweep,) = directories(arguments(__doc__, 1, 1))
     table = sweep / "sweep.csv"
     if not table.is_file():
         print(f"error: {table}: not found (run `stickslip sweep` first)", file=sys.stderr)

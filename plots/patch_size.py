@@ -26,6 +26,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from _command_line import arguments, directories  # noqa: E402
 
 COVERAGE = "interface.coverage"
 
@@ -102,15 +103,11 @@ def drop(by_coverage):
 
 
 def main() -> int:
-    if len(sys.argv) < 2:
-        print("usage: /usr/bin/python3 plots/patch_size.py SWEEP_DIR [SWEEP_DIR...]\n"
-              "  mu and F_f's spread against the patch size R, the sweeps' points together\n"
-              "  -> the first SWEEP_DIR/patch_size.png, .pdf, .csv", file=sys.stderr)
-        return 2
-    sweep_dir = Path(sys.argv[1])
+    sweep_dirs = directories(arguments(__doc__, 1))
+    sweep_dir = sweep_dirs[0]
     points, shapes = [], set()
-    for d in sys.argv[1:]:
-        more, more_shapes = read_points(Path(d))
+    for d in sweep_dirs:
+        more, more_shapes = read_points(d)
         points += more
         shapes |= more_shapes
     table = tabulate(points)

@@ -34,6 +34,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from _command_line import directories  # noqa: E402
 from run_tables import read_table, where  # noqa: E402
 
 
@@ -77,6 +78,7 @@ def main() -> int:
     parser.add_argument("--segment", type=float, help="Welch segment length [s] (default: window/4)")
     parser.add_argument("--out", type=Path, help="picture (default: the first DIR/spectrum.png)")
     args = parser.parse_intermixed_args()
+    directories(args.dirs)
 
     fig, (ax_v, ax_a) = plt.subplots(2, 1, figsize=(6.5, 6.5), sharex=True)
     for i, run in enumerate(args.dirs):

@@ -5,20 +5,17 @@ Usage: /usr/bin/python3 plots/traces.py OUTDIR   -> OUTDIR/traces.png and traces
 """
 import json
 import sys
-from pathlib import Path
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from _command_line import arguments, directories  # noqa: E402
 from run_tables import read_table, where  # noqa: E402
 
 
 def main() -> int:
-    if len(sys.argv) != 2:
-        print(__doc__.strip(), file=sys.stderr)
-        return 2
-    out = Path(sys.argv[1])
+    (out,) = directories(arguments(__doc__, 1, 1))
     traces = read_table(out, "traces")
     if traces is None:
         print(f"error: {where(out, 'traces')}: no traces (set [output] traces in the case)",

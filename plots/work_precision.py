@@ -19,6 +19,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from _command_line import directories  # noqa: E402
 
 MEASURES = [("mu_error", "μ relative error"), ("trace_error", "trace relative L2 error"),
             ("event_error", "largest event time error (s)"), ("state_error", "final-state relative L2 error")]
@@ -88,6 +89,7 @@ def main() -> int:
     p.add_argument("dirs", nargs="+", type=Path)
     p.add_argument("--out", type=Path)
     a = p.parse_args()
+    directories(a.dirs)
     if a.out is None and len(a.dirs) > 1:
         print("error: --out FILE.png is needed with more than one directory", file=sys.stderr)
         return 2

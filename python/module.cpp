@@ -164,6 +164,7 @@ py::dict sweep(const fs::path& file, const fs::path& out, int jobs,
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "stickslip's C++ library; use the package `stickslip`, not this module";
+  m.attr("version") = kVersion;
   m.attr("git_commit") = kGitCommit;
 
   // Python exceptions with the command line's meaning: CaseError and

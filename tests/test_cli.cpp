@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -154,6 +155,43 @@ TEST_CASE("an unknown command-line option is reported in one line", "[cli]") {
   INFO("stderr: " << r.err);
   CHECK(r.code == 2);
   CHECK(lines(r.err) == 1);
+}
+
+namespace {
+
+// The version project() gives in CMakeLists.txt, the one place it is set.
+std::string project_version() {
+  std::smatch m;
+  const std::string cmake = slurp(fs::path(STICKSLIP_SOURCE_DIR) / "CMakeLists.txt");
+  REQUIRE(std::regex_search(cmake, m, std::regex(R"(project\(stickslip VERSION (\S+) )")));
+  return m[1].str();
+}
+
+}  // namespace
+
+TEST_CASE("stickslip --version prints the version and the git commit, exit 0", "[cli]") {
+  Sandbox box;
+  const Result r = box.run({"--version"});
+  INFO("stdout: " << r.out << "stderr: " << r.err);
+  CHECK(r.code == 0);
+  CHECK(r.err.empty());
+  std::smatch m;
+  REQUIRE(std::regex_match(
+      r.out, m,
+      std::regex(R"(stickslip (\S+) \(git commit ([0-9a-f]{40}(-modified)?|unknown)\)\n)")));
+  CHECK(m[1].str() == project_version());
+  // The commit of the source tree the program was built from.
+  const fs::path head = box.root / "head";
+  if (std::system(("git -C " + quote(STICKSLIP_SOURCE_DIR) + " rev-parse HEAD >" +
+                   quote(head.string()) + " 2>/dev/null")
+                      .c_str()) == 0)
+    CHECK(m[2].str().substr(0, 40) == slurp(head).substr(0, 40));
+}
+
+TEST_CASE("CITATION.cff cites the version the program is", "[cli]") {
+  const std::string cff = slurp(fs::path(STICKSLIP_SOURCE_DIR) / "CITATION.cff");
+  CHECK_THAT(cff, StartsWith("cff-version: 1.2.0\n"));
+  CHECK_THAT(cff, Contains("\nversion: \"" + project_version() + "\"\n"));
 }
 
 TEST_CASE("a tiny case runs and writes its outputs, a rerun needs --overwrite", "[cli]") {

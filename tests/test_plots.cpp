@@ -1,12 +1,14 @@
 // The plot scripts (plots/*.py, run with /usr/bin/python3) on tiny outputs:
 // each writes a PNG and a PDF, and the numbers it says it plotted are the
 // ones in the outputs it read.
+#include <algorithm>
 #include <array>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <regex>
@@ -109,6 +111,9 @@ TEST_CASE("fig7.py, fig9.py and epsilon.py plot the sweep's mean mu per coverage
     INFO(script << ": " << r.out);
     REQUIRE(r.code == 0);
     check_png(box.work / "out" / "s" / (std::string(script).substr(0, 4) + ".png"));
+    // The title names the lattice the sweep ran, not the paper's.
+    CHECK_THAT(r.out,
+               Catch::Contains("title: Fig. " + std::string(1, script[3]) + ": μ(θ), 6×6×4\n"));
     std::istringstream lines(r.out);
     int matched = 0;
     static const std::regex printed(
@@ -134,6 +139,33 @@ TEST_CASE("fig7.py, fig9.py and epsilon.py plot the sweep's mean mu per coverage
   REQUIRE(eps.code == 0);
   check_png(box.work / "out" / "e" / "epsilon.png");
   CHECK_THAT(eps.out, Catch::Contains("ε=0.01 theta=") && Catch::Contains("ε=0.03 theta="));
+  // The sweep does not vary v: the title gives its points' v.
+  CHECK_THAT(eps.out, Catch::Contains("title: μ(θ) for several ε, 6×6×4, v = 0.001 m/s\n"));
+}
+
+TEST_CASE("fig7.py on a sweep that varies neither v nor the lattice takes both from its points",
+          "[slow][plots]") {
+  Sandbox box("stickslip_plots_");
+  box.write("base.toml", std::string(kTinyBase) + "[drive]\nvelocity = 2e-3\n");
+  box.write("c.toml",
+            "[sweep]\ncase = \"base.toml\"\n[vary]\ninterface.coverage = [0.2, 0.5]\n"
+            "interface.seed = [1, 2]\n");
+  REQUIRE(box.run({"sweep", "c.toml", "--jobs", "2"}).code == 0);
+  const auto r = python(box, "fig7.py", "out/c");
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  CHECK_THAT(r.out, Catch::Contains("title: Fig. 7: μ(θ), 6×6×4\n"));
+  CHECK_THAT(r.out, !Catch::Contains("15×15×10"));
+  // Each coverage's line names the points' v, not "-".
+  std::istringstream lines(r.out);
+  int with_v = 0;
+  for (std::string line; std::getline(lines, line);) {
+    if (line.find(" theta=") == std::string::npos) continue;
+    CHECK_THAT(line, Catch::StartsWith("v (m/s)=0.002 theta="));
+    CHECK_THAT(line, Catch::Contains(" n=2"));
+    ++with_v;
+  }
+  CHECK(with_v == 2);
 }
 
 TEST_CASE("fig8.py, fig10.py, traces.py and pair_separation.py plot what the runs wrote",
@@ -141,17 +173,21 @@ TEST_CASE("fig8.py, fig10.py, traces.py and pair_separation.py plot what the run
   Sandbox box("stickslip_plots_");
   box.write("base.toml", kTinyBase);
   box.write("two.toml", kTwoContacts);
-  REQUIRE(box.run({"run", "base.toml", "--out", "low", "--set", "interface.coverage=0.1"}).code ==
-          0);
+  REQUIRE(box.run({"run", "base.toml", "--out", "low", "--set", "interface.coverage=0.1", "--set",
+                   "drive.velocity=2e-3"})
+              .code == 0);
   // One run of each pair writes HDF5: the scripts read either format.
   REQUIRE(box.run({"run", "base.toml", "--out", "high", "--set", "interface.coverage=0.5", "--set",
-                   "output.format=\"hdf5\""})
+                   "output.format=\"hdf5\"", "--set", "drive.velocity=2e-3"})
               .code == 0);
   REQUIRE(fs::exists(box.work / "high" / "run.h5"));
   const auto f8 = python(box, "fig8.py", "low high fig8.png");
   INFO(f8.out);
   REQUIRE(f8.code == 0);
   check_png(box.work / "fig8.png");
+  // The title gives the runs' lattice and v (not the paper's 1e-3).
+  CHECK_THAT(f8.out,
+             Catch::Contains("title: Fig. 8: friction force per coverage, 6×6×4, v = 0.002 m/s\n"));
   for (const char* dir : {"low", "high"}) {
     const auto s = nlohmann::json::parse(slurp(box.work / dir / "summary.json"));
     char expect[64];
@@ -186,6 +222,72 @@ TEST_CASE("fig8.py, fig10.py, traces.py and pair_separation.py plot what the run
   check_png(box.work / "out" / "pairs" / "pair_separation.png");
   CHECK_THAT(ps.out, Catch::Contains("x        separation 1 a") &&
                          Catch::Contains("diagonal separation 2.83 a"));
+}
+
+// [slow]: 24 Python start-ups, ~1 min on two busy cores.
+TEST_CASE(
+    "every plot script and example answers --help with its usage, a missing directory with "
+    "not found",
+    "[slow][plots]") {
+  Sandbox box("stickslip_plots_");
+  // Each script with as many directories as it needs, all missing.
+  const std::vector<std::pair<std::string, std::string>> scripts{
+      {"epsilon.py", "nowhere"},         {"fig7.py", "nowhere"},
+      {"fig8.py", "nowhere nowhere2"},   {"fig9.py", "nowhere"},
+      {"fig10.py", "nowhere nowhere2"},  {"finite_size.py", "nowhere"},
+      {"pair_separation.py", "nowhere"}, {"patch_size.py", "nowhere"},
+      {"spectra.py", "nowhere"},         {"traces.py", "nowhere"},
+      {"work_precision.py", "nowhere"}};
+  // No script in plots/ is left out (the modules' names begin with '_', and run_tables.py).
+  std::size_t listed = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(STICKSLIP_SOURCE_DIR) / "plots")) {
+    const std::string name = entry.path().filename().string();
+    if (entry.path().extension() != ".py" || name[0] == '_' || name == "run_tables.py") continue;
+    INFO(name);
+    CHECK(std::count_if(scripts.begin(), scripts.end(),
+                        [&](const auto& s) { return s.first == name; }) == 1);
+    // Runnable by its path: a shebang for /usr/bin/python3 and the run bit.
+    CHECK(slurp(entry.path()).rfind("#!/usr/bin/python3\n", 0) == 0);
+    CHECK((fs::status(entry.path()).permissions() & fs::perms::owner_exec) != fs::perms::none);
+    ++listed;
+  }
+  CHECK(listed == scripts.size());
+  for (const auto& [script, dirs] : scripts) {
+    INFO(script);
+    const auto help = python(box, script, "--help");
+    INFO("--help: " << help.out);
+    CHECK(help.code == 0);
+    // Its usage line, naming the script.
+    CHECK_THAT(help.out,
+               Catch::Contains("usage", Catch::CaseSensitive::No) && Catch::Contains(script));
+    CHECK_THAT(help.out, !Catch::Contains("error:"));
+    const auto missing = python(box, script, dirs);
+    INFO(missing.out);
+    CHECK(missing.code == 2);
+    CHECK_THAT(missing.out, Catch::Contains("error: nowhere: not found"));
+    // Nothing written but the captured output (plot.txt).
+    CHECK(std::distance(fs::directory_iterator(box.work), fs::directory_iterator()) == 1);
+  }
+  // The examples too: runnable, and --help prints their usage without running anything.
+  std::size_t examples = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(STICKSLIP_SOURCE_DIR) / "examples")) {
+    if (entry.path().extension() != ".py") continue;
+    const std::string name = entry.path().filename().string();
+    INFO(name);
+    CHECK(slurp(entry.path()).rfind("#!/usr/bin/python3\n", 0) == 0);
+    CHECK((fs::status(entry.path()).permissions() & fs::perms::owner_exec) != fs::perms::none);
+    const std::string cmd = "cd " + test::quote(box.work.string()) + " && " +
+                            test::quote(entry.path().string()) + " --help >help.txt 2>&1";
+    const int status = std::system(cmd.c_str());
+    const std::string help = slurp(box.work / "help.txt");
+    INFO(help);
+    CHECK((WIFEXITED(status) && WEXITSTATUS(status) == 0));
+    CHECK_THAT(help, Catch::Contains("Usage: ") && Catch::Contains("examples/" + name));
+    fs::remove(box.work / "help.txt");
+    CHECK(std::distance(fs::directory_iterator(box.work), fs::directory_iterator()) == 1);
+    ++examples;
+  }
+  CHECK(examples == 2);
 }
 
 TEST_CASE("run_tables.py reads the same tables from a run's CSV files and from its run.h5",
@@ -298,6 +400,7 @@ TEST_CASE("spectra.py: a sine's line at its frequency with its power (Parseval)"
   fs::create_directories(box.work / "run");
   box.write("run/signals.csv", csv.str());
   box.write("run/summary.json", R"({"theta": 0.1, "average_from": 0.0, "t_end": 0.1})");
+  fs::create_directories(box.work / "elsewhere");
   const auto missing = python(box, "spectra.py", "elsewhere");
   CHECK(missing.code == 2);
   CHECK_THAT(missing.out, Catch::Contains("elsewhere/signals.csv: not found") &&
@@ -371,7 +474,12 @@ TEST_CASE("patch_size.py: mu and F_f's spread per patch size and coverage, means
             "lattice.ny = [6, 8]\ninterface.patch = [1, 2]\n");
   const auto missing = python(box, "patch_size.py", "out/p");
   CHECK(missing.code == 2);
-  CHECK_THAT(missing.out, Catch::Contains("out/p/sweep.csv: not found"));
+  CHECK_THAT(missing.out, Catch::Contains("out/p: not found"));
+  fs::create_directories(box.work / "out" / "p");
+  const auto no_table = python(box, "patch_size.py", "out/p");
+  CHECK(no_table.code == 2);
+  CHECK_THAT(no_table.out, Catch::Contains("out/p/sweep.csv: not found"));
+  fs::remove(box.work / "out" / "p");
   REQUIRE(box.run({"sweep", "p.toml", "--jobs", "2"}).code == 0);
 
   // Expected: from every point's summary.json, grouped by (R, coverage).

@@ -14,6 +14,7 @@ Python objects and numpy arrays. The README's "Python" section says more.
 
 from ._case import Case
 from ._core import CaseError, IntegrationError, OutputError, git_commit
+from ._core import version as __version__
 from ._run import AccuracyWarning, Contacts, Events, Friction, Interrupted, MuWarning, Run, Slips, Traces, load, run
 from ._sweep import load_sweep, sweep
 

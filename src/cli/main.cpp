@@ -282,6 +282,8 @@ int main(int argc, char** argv) {
   CLI::App app{
       "stickslip: an elastic block sliding on stick-slip contacts (3D spring-block model)"};
   app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("stickslip ") + stickslip::kVersion +
+                                        " (git commit " + stickslip::kGitCommit + ")");
   RunArguments r;
   CLI::App* run = app.add_subcommand("run", "integrate a case file and write its outputs");
   run->add_option("case", r.case_file, "the case file (TOML)")->required();
@@ -339,6 +341,8 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     std::fprintf(stderr, "error: %s (see stickslip --help)\n", e.what());

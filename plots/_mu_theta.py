@@ -1,9 +1,13 @@
 """μ(θ) with error bars over seeds, one curve per other swept value: shared by
 fig7.py, fig9.py and epsilon.py. Reads a sweep directory's sweep_summary.csv
-(stickslip sweep)."""
+(stickslip sweep) and, for what the table does not vary (the lattice, the
+drive velocity), its points' summary.json ("case"): titles and legends say what
+was run, not what the paper ran."""
 import csv
-import sys
+import json
 from pathlib import Path
+
+from _command_line import arguments, directories
 
 import matplotlib
 
@@ -22,6 +26,32 @@ def read_summary(sweep_dir: Path):
     if not rows or COVERAGE not in rows[0]:
         raise SystemExit(f"error: {table}: the sweep does not vary {COVERAGE}")
     return rows
+
+
+def point_cases(sweep_dir: Path):
+    """The case (summary.json's "case") of every finished point of the sweep."""
+    cases = []
+    for summary in sorted(sweep_dir.glob("*/summary.json")):
+        try:
+            cases.append(json.loads(summary.read_text())["case"])
+        except (OSError, ValueError, KeyError):
+            continue  # a point still running, or cut short
+    return cases
+
+
+def case_value(case, key: str):
+    """The value of `key` ("section.name") in a case, None if it has none."""
+    section, name = key.split(".", 1)
+    return case.get(section, {}).get(name)
+
+
+def lattice(case) -> str:
+    size = case.get("lattice", {})
+    return "×".join(str(size.get(n, "?")) for n in ("nx", "ny", "nz"))
+
+
+def number(value) -> str:
+    return f"{value:g}" if isinstance(value, (int, float)) else str(value)
 
 
 def curves(rows, label_key):
@@ -55,11 +85,24 @@ def seed_count(pts) -> str:
 
 def plot(sweep_dirs, label_key: str, label_name: str, stem: str, title: str) -> int:
     data = {}
+    lattices, velocities = set(), set()
     for sweep_dir in sweep_dirs:
         rows = read_summary(sweep_dir)
+        cases = point_cases(sweep_dir)
+        lattices |= {lattice(c) for c in cases}
+        velocities |= {case_value(c, "drive.velocity") for c in cases} - {None}
         key = label_key if label_key and label_key in rows[0] else ""
+        # A value the sweep does not vary is its points' (one curve), if they share one.
+        fixed = {case_value(c, label_key) for c in cases} if label_key and not key else set()
         for value, pts in curves(rows, key).items():
+            if not value and len(fixed) == 1 and None not in fixed:
+                value = number(next(iter(fixed)))
             data.setdefault(value, []).extend(pts)
+    if lattices:
+        title += ", " + ", ".join(sorted(lattices))
+    if label_key != "drive.velocity" and len(velocities) == 1:
+        title += f", v = {number(next(iter(velocities)))} m/s"
+    print(f"title: {title}")
     fig, ax = plt.subplots(figsize=(7, 4))
     for i, (value, pts) in enumerate(sorted(data.items(), key=lambda kv: float(kv[0]) if kv[0] else 0)):
         pts.sort()
@@ -93,9 +136,9 @@ def plot(sweep_dirs, label_key: str, label_name: str, stem: str, title: str) -> 
     return 0
 
 
-def main(stem: str, title: str, label_key: str = "drive.velocity", label_name: str = "v (m/s)") -> int:
-    if len(sys.argv) < 2:
-        print(f"usage: /usr/bin/python3 plots/{stem}.py SWEEP_DIR [SWEEP_DIR...]\n"
-              f"  curves of all the sweeps in one plot -> the first SWEEP_DIR/{stem}.png, .pdf", file=sys.stderr)
-        return 2
-    return plot([Path(a) for a in sys.argv[1:]], label_key, label_name, stem, title)
+def main(stem: str, title: str, usage: str, label_key: str = "drive.velocity",
+         label_name: str = "v (m/s)") -> int:
+    """Plots the sweeps on the command line; `title` is completed by the data's
+    lattice (and drive velocity, where it is no curve's label)."""
+    sweep_dirs = directories(arguments(usage, 1))
+    return plot(sweep_dirs, label_key, label_name, stem, title)
