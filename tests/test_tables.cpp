@@ -289,3 +289,26 @@ final_state = true
   CHECK(from_csv.mu_whole_cycles->mu == from_file.mu_whole_cycles->mu);
   CHECK(from_csv.F_f_spread == from_file.F_f_spread);
 }
+
+TEST_CASE("an exact column is written in the fewest digits that read back bit for bit",
+          "[tables]") {
+  const test::TempDir tmp("stickslip_test_exact_digits");
+  const TableSpec spec{"exact", {{.name = "t", .unit = "s"}, {.name = "v", .digits = kExact}}};
+  // 2.09e-3 printed to 17 digits is 0.0020899999999999998; 0.1 + 0.2 needs all 17.
+  const std::vector<double> values = {2.09e-3, 0.1 + 0.2, 1.0 / 3.0, -4.75e-4, 1e-300};
+  {
+    const auto table = make_table_store(OutputFormat::csv, tmp.path, false)->create(spec);
+    for (std::size_t k = 0; k < values.size(); ++k) {
+      const double row[2] = {double(k), values[k]};
+      table->append(row);
+    }
+  }
+  std::ifstream in(tmp.path / "exact.csv");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  CHECK_THAT(text, Catch::Contains("\n0,0.00209\n") &&
+                       Catch::Contains("\n1,0.30000000000000004\n") &&
+                       Catch::Contains("\n3,-0.000475\n"));
+  const TraceTable back = read_run_table(tmp.path, "exact");
+  REQUIRE(back.values.at(0).size() == values.size());
+  for (std::size_t k = 0; k < values.size(); ++k) CHECK(back.values[0][k] == values[k]);
+}

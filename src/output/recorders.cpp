@@ -42,7 +42,7 @@ class ContactsRecorder final : public Recorder {
   explicit ContactsRecorder(const RecorderSetup& s) {
     if (s.resume_at) return;  // written by the first run
     const auto table = s.tables.create(
-        {kTable, {integer("id"), integer("ix"), integer("iy"), real("v_star", "m/s", 17)}});
+        {kTable, {integer("id"), integer("ix"), integer("iy"), real("v_star", "m/s", kExact)}});
     const auto& contacts = s.system.contacts();
     for (std::size_t i = 0; i < contacts.size(); ++i) {
       const double row[4] = {double(i), double(contacts[i].ix), double(contacts[i].iy),
@@ -411,12 +411,13 @@ class StepsRecorder final : public Recorder {
 class SignalsRecorder final : public Recorder {
  public:
   static constexpr const char* kTable = "signals";
-  // 17 digits: the impulse is differenced twice.
+  // Exact digits: the impulse is differenced twice.
   explicit SignalsRecorder(const RecorderSetup& s)
       : system_(s.system),
-        table_(open_table(s, {kTable,
-                              {time_column(), real("block_velocity", "m/s", 17),
-                               real("contact_impulse", "N s", 17), real("acoustic", "N/s", 17)}})) {
+        table_(open_table(
+            s, {kTable,
+                {time_column(), real("block_velocity", "m/s", kExact),
+                 real("contact_impulse", "N s", kExact), real("acoustic", "N/s", kExact)}})) {
     if (!s.resume_at) return;
     // The last two rows' (t, impulse), to difference the next ones.
     table_->flush();  // the cut back reaches the file before it is read
@@ -447,7 +448,7 @@ class SignalsRecorder final : public Recorder {
   std::vector<std::array<double, 2>> last_;
 };
 
-// final_state: every node's displacement and velocity at t_end, 17 digits,
+// final_state: every node's displacement and velocity at t_end, in digits that read back exactly,
 // for comparing runs state by state (bench/work_precision.py).
 class FinalStateRecorder final : public Recorder {
  public:
@@ -455,8 +456,9 @@ class FinalStateRecorder final : public Recorder {
   explicit FinalStateRecorder(const RecorderSetup& s) : system_(s.system), tables_(s.tables) {}
   void finish(double t_end, std::span<const double> y, Summary&) override {
     TableSpec spec{kTable, {time_column(), integer("ix"), integer("iy"), integer("iz")}};
-    for (const char* name : {"u_x", "u_y", "u_z"}) spec.columns.push_back(real(name, "m", 17));
-    for (const char* name : {"w_x", "w_y", "w_z"}) spec.columns.push_back(real(name, "m/s", 17));
+    for (const char* name : {"u_x", "u_y", "u_z"}) spec.columns.push_back(real(name, "m", kExact));
+    for (const char* name : {"w_x", "w_y", "w_z"})
+      spec.columns.push_back(real(name, "m/s", kExact));
     const auto state = tables_.create(spec);
     std::array<double, 10> row{};
     for (int iz = 0; iz < system_.nz(); ++iz)

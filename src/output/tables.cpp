@@ -2,6 +2,7 @@
 // format (the HDF5 store is in hdf5_tables.cpp).
 #include "stickslip/output/tables.hpp"
 
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -41,8 +42,13 @@ class CsvTable final : public Table {
       const Column& c = columns_[i];
       switch (c.type) {
         case ColumnType::real:
-          std::snprintf(buffer_, sizeof buffer_, formats_[i].c_str(), row[i]);
-          out_ << buffer_;
+          if (c.digits == kExact) {
+            const auto end = std::to_chars(buffer_, buffer_ + sizeof buffer_, row[i]).ptr;
+            out_.write(buffer_, end - buffer_);
+          } else {
+            std::snprintf(buffer_, sizeof buffer_, formats_[i].c_str(), row[i]);
+            out_ << buffer_;
+          }
           break;
         case ColumnType::integer:
           out_ << std::llround(row[i]);

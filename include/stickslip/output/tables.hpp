@@ -23,11 +23,15 @@ namespace stickslip {
 // whole numbers (a label column's number is the index of its text in `labels`).
 enum class ColumnType { real, integer, label };
 
+// Column::digits for values that must read back bit for bit (v*, a final
+// state): the shortest text that does (0.00209, not 0.0020899999999999998).
+inline constexpr int kExact = 0;
+
 struct Column {
   std::string name{};  // CSV header; HDF5 dataset name (unless `dataset` is set)
   std::string unit{};  // HDF5 attribute "units" ("" for none)
   ColumnType type = ColumnType::real;
-  int digits = 10;                    // significant digits in CSV
+  int digits = 10;  // significant digits in CSV; kExact: the fewest that read back exactly
   std::vector<std::string> labels{};  // ColumnType::label: the text of 0, 1, ...
   // HDF5 only: this column is member `member` of the 2-D dataset `dataset`
   // [row × member] (traces: vx of every traced contact in one dataset).
