@@ -15,7 +15,8 @@
 // whole matrix, hidden from ctest and run by scripts/soak, which also writes
 // the table of docs/STABILITY.md (STICKSLIP_STRESS_REPORT=file appends one
 // markdown row per run). STICKSLIP_STRESS_FILTER="a|b" runs only the rows
-// whose name contains a or b.
+// whose name contains a or b; a test case none of whose rows it selects
+// fails, having checked nothing.
 #include <unistd.h>
 
 #include <catch2/catch.hpp>
@@ -193,17 +194,19 @@ const char* getenv_or_empty(const char* name) {
   return v ? v : "";
 }
 
+// Whether STICKSLIP_STRESS_FILTER ('|'-separated substrings) selects the row;
+// no filter selects every row.
+bool selected(const Row& row) {
+  const std::string filter = getenv_or_empty("STICKSLIP_STRESS_FILTER");
+  if (filter.empty()) return true;
+  std::stringstream parts(filter);
+  for (std::string part; std::getline(parts, part, '|');)
+    if (!part.empty() && row.name.find(part) != std::string::npos) return true;
+  return false;
+}
+
 // Runs one row and checks (a) or (b). Prints and (optionally) reports a table row.
 void stress(const Row& row) {
-  // STICKSLIP_STRESS_FILTER: '|'-separated substrings of the rows to run.
-  if (const std::string filter = getenv_or_empty("STICKSLIP_STRESS_FILTER"); !filter.empty()) {
-    bool any = false;
-    std::stringstream parts(filter);
-    for (std::string part; std::getline(parts, part, '|');)
-      any = any || (!part.empty() && row.name.find(part) != std::string::npos);
-    if (!any) return;
-  }
-
   Case c = base_case();
   row.regime(c);
   // [output] steps stays off (the default): the steps of a run that stopped
@@ -294,6 +297,21 @@ void stress(const Row& row) {
   }
   fs::remove_all(dir);
   fs::remove(dir.parent_path());  // only if empty
+}
+
+// Runs the rows the filter selects, and fails when it selects none: a filter
+// that matches no row would otherwise pass having checked nothing.
+void stress_all(const std::vector<Row>& rows) {
+  long ran = 0;
+  for (const Row& r : rows)
+    if (selected(r)) {
+      stress(r);
+      ++ran;
+    }
+  INFO("STICKSLIP_STRESS_FILTER=\"" << getenv_or_empty("STICKSLIP_STRESS_FILTER")
+                                    << "\" selects none of this test case's " << rows.size()
+                                    << " rows");
+  REQUIRE(ran > 0);
 }
 
 Row make(Method m, const std::string& regime_name, Expect expect) {
@@ -390,7 +408,7 @@ TEST_CASE("every method finishes or stops with a diagnostic (CI subset)", "[stre
     r.wall_limit = 120;
     rows.push_back(r);
   }
-  for (const Row& r : rows) stress(r);
+  stress_all(rows);
 }
 
 // The whole matrix (scripts/soak, ~7 min on one core): every method on every
@@ -514,5 +532,5 @@ TEST_CASE("soak: every method on every regime", "[.soak]") {
     r.wall_limit = 900;
     rows.push_back(r);
   }
-  for (const Row& r : rows) stress(r);
+  stress_all(rows);
 }
