@@ -460,7 +460,7 @@ namespace {
 // method's steps follow rtol, and a cap sized for the old fixed tolerances
 // (2e5 imex steps for 5 ms) no longer says anything. So:
 //   - a row expected to finish is capped at kCapMargin × N, N the steps it
-//     took at its own rtol in the soak of 2026-11-26 (kMeasured: its horizon
+//     took at its own rtol in the soak of 2026-11-26 (measured(): its horizon
 //     over its mean step at that rtol). A method that starts to take 4× the
 //     steps stops at the cap and fails its row; one that needs fewer passes.
 //     Its watchdog allows kWallMargin × the wall time measured then (on the
@@ -640,7 +640,8 @@ std::vector<Row> soak_rows() {
     for (const auto& [name, f] : regimes()) {
       Row r = five_ms(make(m, name, Expect::either));
       if (m == Method::multirate && (name == "one_contact" || name == "v=1")) {
-        // Above what sound runs show, within run_case's 100 × rtol.
+        // Findings: above what sound runs show, within run_case's 100 × rtol;
+        // held to 30 × rtol until they are looked into (docs/STABILITY.md).
         r.residual_per_rtol = 30;
         r = finishes(r, name == "one_contact" ? "finding: its audit is 17 × rtol here"
                                               : "finding: its audit is 11 × rtol here");
@@ -655,7 +656,7 @@ std::vector<Row> soak_rows() {
 
   // erk from rest: its steps fall to 1e-16–1e-13 s (the stuck contacts'
   // stiffness, MODEL.md §6, under the creep's velocity tolerance), so 1 ms
-  // would take > 1e10 steps; the cap is a budget of 5e4 steps (~5 s). Where
+  // would take > 1e10 steps; the cap is a budget of 5e4 steps (~2 s). Where
   // its error test gives up first, that is the stop.
   for (const auto& [name, f] : regimes()) {
     Row r = make(Method::erk, name, Expect::stop);
