@@ -1,6 +1,8 @@
 // Case-file reader. Every key is one entry of the schema below (section, key,
-// and how to read it); the reader walks the parsed TOML against that
-// table, so adding a parameter is adding one entry. Checks that involve two keys
+// how to read it, unit and meaning); the reader walks the parsed TOML against
+// that table, and `stickslip keys` and docs/keys.md print it, so adding a
+// parameter is adding one entry (and its field and to_json line, which
+// tests/test_case_keys.cpp checks). Checks that involve two keys
 // run afterwards on the filled Case. Errors are blamed on the node at fault:
 // toml++ records where each node came from, and nodes parsed from --set carry
 // the source name "--set", so an override is reported as such and not as a line
@@ -23,10 +25,12 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <numeric>
 #include <sstream>
 #include <utility>
 
+#include "stickslip/case/keys.hpp"
 #include "stickslip/case/methods.hpp"
 #include "stickslip/model/contacts.hpp"
 #include "toml_text.hpp"
@@ -55,12 +59,20 @@ struct Reader {
   std::vector<const toml::node*> contact_sites, trace_ids,
       event_ids;  // parallel to the Case's lists
 
-  [[noreturn]] void fail(const toml::node& at, std::string_view key, std::string_view what) const {
+  std::string message(const toml::node& at, std::string_view key, std::string_view what) const {
     const auto& src = at.source();
-    if (from_override(at))
-      throw CaseError(override_prefix + std::string(key) + ": " + std::string(what));
+    if (from_override(at)) return override_prefix + std::string(key) + ": " + std::string(what);
     std::string where = src.begin.line ? source + ":" + std::to_string(src.begin.line) : source;
-    throw CaseError(where + ": " + std::string(key) + ": " + std::string(what));
+    return where + ": " + std::string(key) + ": " + std::string(what);
+  }
+
+  [[noreturn]] void fail(const toml::node& at, std::string_view key, std::string_view what) const {
+    throw CaseError(message(at, key, what));
+  }
+
+  [[noreturn]] void fail_unknown(const toml::node& at, std::string_view key,
+                                 std::string_view what) const {
+    throw UnknownKeyError(message(at, key, what));
   }
 
   // A cross-key problem is blamed on the first key of `choices` the user gave,
@@ -116,44 +128,59 @@ constexpr Range kNonNegative{0, kInf, false, true};
 // Converts one value, checks what can be checked on it alone, and stores it.
 using Apply = std::function<void(Reader&, const toml::node&, const std::string& key, Case&)>;
 
+// How a key is read, and what it allows in words (for `stickslip keys`): the
+// builders below write both from the same range or options.
+struct Rule {
+  Apply apply;
+  std::string allowed;
+};
+
+// One key: how it is read, its unit and what it means. The default is the
+// Case's member initialiser (case.hpp), read through to_json(Case{}).
 struct Entry {
   std::string_view section, key;
-  Apply apply;
+  Rule rule;
+  std::string_view unit;  // SI; empty: a number without unit, a word, a flag
+  std::string_view help;
 };
 
 // Builders for the common kinds of entry; `s` and `m` reach the parameter: (c.*s).*m.
 template <class S>
-Apply real(S Case::*s, double S::*m, Range range) {
-  return [=](Reader& r, const toml::node& n, const std::string& key, Case& c) {
-    double x = r.real(n, key);
-    if (!range.contains(x)) r.fail(n, key, "must be " + range.text() + ", got " + fmt(x));
-    (c.*s).*m = x;
-  };
+Rule real(S Case::*s, double S::*m, Range range) {
+  return {[=](Reader& r, const toml::node& n, const std::string& key, Case& c) {
+            double x = r.real(n, key);
+            if (!range.contains(x)) r.fail(n, key, "must be " + range.text() + ", got " + fmt(x));
+            (c.*s).*m = x;
+          },
+          range.text()};
 }
 
 template <class S, class T>
-Apply integer(S Case::*s, T S::*m, std::int64_t lo) {
-  return [=](Reader& r, const toml::node& n, const std::string& key, Case& c) {
-    std::int64_t x = r.integer(n, key);
-    if (x < lo) r.fail(n, key, "must be >= " + std::to_string(lo) + ", got " + std::to_string(x));
-    if (std::cmp_greater(x, std::numeric_limits<T>::max()))
-      r.fail(n, key,
-             "must be <= " + std::to_string(std::numeric_limits<T>::max()) + ", got " +
-                 std::to_string(x));
-    (c.*s).*m = static_cast<T>(x);
-  };
+Rule integer(S Case::*s, T S::*m, std::int64_t lo) {
+  return {[=](Reader& r, const toml::node& n, const std::string& key, Case& c) {
+            std::int64_t x = r.integer(n, key);
+            if (x < lo)
+              r.fail(n, key, "must be >= " + std::to_string(lo) + ", got " + std::to_string(x));
+            if (std::cmp_greater(x, std::numeric_limits<T>::max()))
+              r.fail(n, key,
+                     "must be <= " + std::to_string(std::numeric_limits<T>::max()) + ", got " +
+                         std::to_string(x));
+            (c.*s).*m = static_cast<T>(x);
+          },
+          "integer >= " + std::to_string(lo)};
 }
 
 // A string naming one of `options`, spelled as to_string spells them.
 template <class S, class E, class... Es>
-Apply choice(S Case::*s, E S::*m, Es... options) {
-  return [=](Reader& r, const toml::node& n, const std::string& key, Case& c) {
-    const std::string& word = r.string(n, key);
-    if (((word == to_string(options) && ((c.*s).*m = options, true)) || ...)) return;
-    std::string names;
-    ((names += (names.empty() ? "\""s : ", \""s) + to_string(options) + "\""), ...);
-    r.fail(n, key, "must be one of " + names + ", got \"" + printable(word) + "\"");
-  };
+Rule choice(S Case::*s, E S::*m, Es... options) {
+  std::string names;
+  ((names += (names.empty() ? "\""s : ", \""s) + to_string(options) + "\""), ...);
+  return {[=](Reader& r, const toml::node& n, const std::string& key, Case& c) {
+            const std::string& word = r.string(n, key);
+            if (((word == to_string(options) && ((c.*s).*m = options, true)) || ...)) return;
+            r.fail(n, key, "must be one of " + names + ", got \"" + printable(word) + "\"");
+          },
+          names};
 }
 
 // "auto", or the name of a row of a table of case/methods.hpp.
@@ -241,108 +268,186 @@ void read_contacts(Reader& r, const toml::node& n, const std::string& key, Case&
 }
 
 // "all", "none" or a list of distinct contact ids, for traces and for events.
-Apply contact_selection(ContactSelection OutputParams::*which, std::vector<int> OutputParams::*ids,
-                        std::vector<const toml::node*> Reader::*nodes) {
-  return [=](Reader& r, const toml::node& n, const std::string& key, Case& c) {
-    auto& out = c.output;
-    auto& list = out.*ids;
-    list.clear();
-    (r.*nodes).clear();
-    if (auto* s = n.as_string(); s && (s->get() == "all" || s->get() == "none")) {
-      out.*which = s->get() == "all" ? ContactSelection::all : ContactSelection::none;
-      return;
-    }
-    const auto* array = n.as_array();
-    if (!array) {
-      std::string got =
-          n.is_string() ? "\"" + printable(n.as_string()->get()) + "\"" : type_name(n);
-      r.fail(n, key, "must be \"all\", \"none\" or an array of contact ids, got " + got);
-    }
-    out.*which = ContactSelection::list;
-    for (std::size_t i = 0; i < array->size(); ++i) {
-      const std::string name = key + "[" + std::to_string(i) + "]";
-      int id = r.index(*array->get(i), name);
-      if (auto it = std::find(list.begin(), list.end(), id); it != list.end())
-        r.fail(*array->get(i), name,
-               "contact " + std::to_string(id) + " repeats " + key + "[" +
-                   std::to_string(it - list.begin()) + "]");
-      list.push_back(id);
-      (r.*nodes).push_back(array->get(i));
-    }
-  };
+Rule contact_selection(ContactSelection OutputParams::*which, std::vector<int> OutputParams::*ids,
+                       std::vector<const toml::node*> Reader::*nodes) {
+  return {[=](Reader& r, const toml::node& n, const std::string& key, Case& c) {
+            auto& out = c.output;
+            auto& list = out.*ids;
+            list.clear();
+            (r.*nodes).clear();
+            if (auto* s = n.as_string(); s && (s->get() == "all" || s->get() == "none")) {
+              out.*which = s->get() == "all" ? ContactSelection::all : ContactSelection::none;
+              return;
+            }
+            const auto* array = n.as_array();
+            if (!array) {
+              std::string got =
+                  n.is_string() ? "\"" + printable(n.as_string()->get()) + "\"" : type_name(n);
+              r.fail(n, key, "must be \"all\", \"none\" or an array of contact ids, got " + got);
+            }
+            out.*which = ContactSelection::list;
+            for (std::size_t i = 0; i < array->size(); ++i) {
+              const std::string name = key + "[" + std::to_string(i) + "]";
+              int id = r.index(*array->get(i), name);
+              if (auto it = std::find(list.begin(), list.end(), id); it != list.end())
+                r.fail(*array->get(i), name,
+                       "contact " + std::to_string(id) + " repeats " + key + "[" +
+                           std::to_string(it - list.begin()) + "]");
+              list.push_back(id);
+              (r.*nodes).push_back(array->get(i));
+            }
+          },
+          "\"all\", \"none\" or [contact ids]"};
 }
 
-Apply boolean(bool OutputParams::*m) {
-  return [=](Reader& r, const toml::node& n, const std::string& key, Case& c) {
-    const auto* b = n.as_boolean();
-    if (!b) r.fail(n, key, "expected true or false, got " + type_name(n));
-    c.output.*m = b->get();
-  };
+Rule boolean(bool OutputParams::*m) {
+  return {[=](Reader& r, const toml::node& n, const std::string& key, Case& c) {
+            const auto* b = n.as_boolean();
+            if (!b) r.fail(n, key, "expected true or false, got " + type_name(n));
+            c.output.*m = b->get();
+          },
+          "true, false"};
 }
 
+// "auto" and the names of a table's rows (case/methods.hpp), as read_row takes them.
+template <class Row>
+std::string row_names(std::span<const Row> rows) {
+  std::string names = "\"auto\"";
+  for (const Row& row : rows) names += ", \"" + std::string(row.name) + "\"";
+  return names;
+}
+
+// Every key of a case file: section, key, how it is read (with its allowed
+// values), unit and meaning. `stickslip keys` and docs/keys.md print this
+// table, with each default read from to_json(Case{}); a key added here
+// without its unit and meaning does not compile.
 const std::vector<Entry>& schema() {
   static const std::vector<Entry> entries = {
-      {"lattice", "nx", integer(&Case::lattice, &LatticeParams::nx, 1)},
-      {"lattice", "ny", integer(&Case::lattice, &LatticeParams::ny, 1)},
-      {"lattice", "nz", integer(&Case::lattice, &LatticeParams::nz, 2)},
-      {"lattice", "spacing", real(&Case::lattice, &LatticeParams::spacing, kPositive)},
-      {"material", "density", real(&Case::material, &MaterialParams::density, kPositive)},
+      {"lattice", "nx", integer(&Case::lattice, &LatticeParams::nx, 1), "nodes",
+       "Nx: nodes along x (periodic)"},
+      {"lattice", "ny", integer(&Case::lattice, &LatticeParams::ny, 1), "nodes",
+       "Ny: nodes along y (periodic)"},
+      {"lattice", "nz", integer(&Case::lattice, &LatticeParams::nz, 2), "nodes",
+       "Nz: layers along z; layer 0 touches the substrate, the top layer is driven"},
+      {"lattice", "spacing", real(&Case::lattice, &LatticeParams::spacing, kPositive), "m",
+       "a: lattice spacing; each node has mass m = ρ a³"},
+      {"material", "density", real(&Case::material, &MaterialParams::density, kPositive), "kg/m³",
+       "ρ: mass density"},
       {"material", "youngs_modulus",
-       real(&Case::material, &MaterialParams::youngs_modulus, kPositive)},
+       real(&Case::material, &MaterialParams::youngs_modulus, kPositive), "Pa",
+       "E: Young's modulus"},
       {"material", "poisson_ratio",
-       real(&Case::material, &MaterialParams::poisson_ratio, Range{-1, 0.5, true, false})},
+       real(&Case::material, &MaterialParams::poisson_ratio, Range{-1, 0.5, true, false}), "",
+       "ν: Poisson's ratio"},
       {"material", "grad_div",
-       choice(&Case::material, &MaterialParams::grad_div, GradDiv::paper, GradDiv::navier)},
-      {"damping", "bulk", real(&Case::damping, &DampingParams::bulk, kNonNegative)},
-      {"damping", "contact", real(&Case::damping, &DampingParams::contact, kNonNegative)},
+       choice(&Case::material, &MaterialParams::grad_div, GradDiv::paper, GradDiv::navier), "",
+       "G2 = (1+2ν) G1, the paper's Eq. (1) (\"paper\"), or the textbook G1/(1−2ν) "
+       "(\"navier\", needs ν < 0.5) (MODEL.md §2)"},
+      {"damping", "bulk", real(&Case::damping, &DampingParams::bulk, kNonNegative), "",
+       "η̂ = η/ω0: damping on every lattice face (MODEL.md §4)"},
+      {"damping", "contact", real(&Case::damping, &DampingParams::contact, kNonNegative), "",
+       "η̂_c = η_c/ω0: viscous damping of each contact (MODEL.md §6)"},
       {"interface", "coverage",
-       real(&Case::interface, &InterfaceParams::coverage, Range{0, 1, true, false})},
-      {"interface", "seed", integer(&Case::interface, &InterfaceParams::seed, 0)},
+       real(&Case::interface, &InterfaceParams::coverage, Range{0, 1, true, false}), "",
+       "θ requested: N_c = floor(θ Nx Ny / R² + 0.5) contacts placed at random"},
+      {"interface", "seed", integer(&Case::interface, &InterfaceParams::seed, 0), "",
+       "seed of the random placement: sites and their v*"},
       {"interface", "shear_stress",
-       real(&Case::interface, &InterfaceParams::shear_stress, kPositive)},
-      {"interface", "shape", real(&Case::interface, &InterfaceParams::shape, kPositive)},
-      {"interface", "v_m", real(&Case::interface, &InterfaceParams::v_m, kPositive)},
-      {"interface", "spread", real(&Case::interface, &InterfaceParams::spread, kNonNegative)},
-      {"interface", "epsilon", real(&Case::interface, &InterfaceParams::epsilon, kPositive)},
+       real(&Case::interface, &InterfaceParams::shear_stress, kPositive), "Pa",
+       "τ_f: a contact's force scale is f0 = a² τ_f (MODEL.md §6)"},
+      {"interface", "shape", real(&Case::interface, &InterfaceParams::shape, kPositive), "",
+       "c in φ(r) = exp(−c (log10 r)²), the contact force's dependence on r = |s|/v*"},
+      {"interface", "v_m", real(&Case::interface, &InterfaceParams::v_m, kPositive), "m/s",
+       "v_m: centre of the log-uniform v* distribution"},
+      {"interface", "spread", real(&Case::interface, &InterfaceParams::spread, kNonNegative),
+       "decades", "δ: half-width of log10 v*, drawn uniformly in [log10 v_m − δ, log10 v_m + δ]"},
+      {"interface", "epsilon", real(&Case::interface, &InterfaceParams::epsilon, kPositive), "",
+       "ε: force scaling of the contacts (MODEL.md §6)"},
       {"interface", "max_pressure",
-       real(&Case::interface, &InterfaceParams::max_pressure, kPositive)},
+       real(&Case::interface, &InterfaceParams::max_pressure, kPositive), "Pa",
+       "P0: the normal load is F_N = ε θ P0 Nx Ny a² (MODEL.md §7)"},
       {"interface", "slip_threshold",
-       real(&Case::interface, &InterfaceParams::slip_threshold, kPositive)},
-      {"interface", "patch", integer(&Case::interface, &InterfaceParams::patch, 1)},
-      {"interface", "contacts", read_contacts},
-      {"drive", "velocity", real(&Case::drive, &DriveParams::velocity, kNonNegative)},
-      {"run", "t_end", real(&Case::run, &RunParams::t_end, kPositive)},
-      {"run", "average_from", real(&Case::run, &RunParams::average_from, kNonNegative)},
+       real(&Case::interface, &InterfaceParams::slip_threshold, kPositive), "",
+       "κ: a contact slips while |s| > κ v* (MODEL.md §9)"},
+      {"interface", "patch", integer(&Case::interface, &InterfaceParams::patch, 1), "nodes",
+       "R: every contact is an R×R square of bottom nodes (MODEL.md §14); 1 is the paper's "
+       "single-site contact"},
+      {"interface",
+       "contacts",
+       {read_contacts, "[{ site = [ix, iy], v_star = ... }, ...]: at least one, sites distinct"},
+       "",
+       "explicit contacts, numbered in the list's order (v_star in m/s); replaces coverage and "
+       "seed"},
+      {"drive", "velocity", real(&Case::drive, &DriveParams::velocity, kNonNegative), "m/s",
+       "v: speed of the driving plate"},
+      {"run", "t_end", real(&Case::run, &RunParams::t_end, kPositive), "s",
+       "end of the run (a restart may raise it)"},
+      {"run", "average_from", real(&Case::run, &RunParams::average_from, kNonNegative), "s",
+       "t_avg: μ averages F_f over [t_avg, t_end]; must be < t_end"},
       {"run", "initial",
-       choice(&Case::run, &RunParams::initial, InitialState::rest, InitialState::sliding)},
-      {"run", "checkpoint_every", real(&Case::run, &RunParams::checkpoint_every, kNonNegative)},
-      {"solver", "method", read_method},
-      {"solver", "linear_solver", read_linear_solver},
-      {"solver", "order", integer(&Case::solver, &SolverParams::order, 0)},
-      {"solver", "step", real(&Case::solver, &SolverParams::step, kNonNegative)},
+       choice(&Case::run, &RunParams::initial, InitialState::rest, InitialState::sliding), "",
+       "start at rest (u = w = 0) or sliding (w_x = v everywhere)"},
+      {"run", "checkpoint_every", real(&Case::run, &RunParams::checkpoint_every, kNonNegative), "s",
+       "simulated time between checkpoints; 0: none"},
+      {"solver",
+       "method",
+       {read_method, row_names(methods())},
+       "",
+       "the integrator; \"auto\" chooses one for the case (README, Methods)"},
+      {"solver",
+       "linear_solver",
+       {read_linear_solver, row_names(linear_solvers())},
+       "",
+       "how dirk and bdf solve their stage equations (those methods only); \"auto\" is \"fft\""},
+      {"solver", "order", integer(&Case::solver, &SolverParams::order, 0), "",
+       "the method's order; 0: its default (bdf: 2)"},
+      {"solver", "step", real(&Case::solver, &SolverParams::step, kNonNegative), "s",
+       "> 0: fixed step, adaptivity off (ARKStep's methods); 0: adaptive"},
       // Below 1e-12 the error test asks for more than double precision gives
       // over a run's steps (SUNDIALS fails mid-run); above 1e-2 the energy
       // audit, bounded by 100 × rtol, checks nothing.
-      {"solver", "rtol",
-       real(&Case::solver, &SolverParams::rtol, Range{1e-12, 1e-2, false, false})},
+      {"solver", "rtol", real(&Case::solver, &SolverParams::rtol, Range{1e-12, 1e-2, false, false}),
+       "",
+       "relative tolerance; above 1e-5 slip counts and times are not to be trusted (summary.json "
+       "warns)"},
       {"solver", "atol_displacement",
-       real(&Case::solver, &SolverParams::atol_displacement, kPositive)},
-      {"solver", "atol_velocity", real(&Case::solver, &SolverParams::atol_velocity, kPositive)},
-      {"solver", "threads", integer(&Case::solver, &SolverParams::threads, 0)},
-      {"solver", "max_steps", integer(&Case::solver, &SolverParams::max_steps, 1)},
-      {"solver", "audit_bound", real(&Case::solver, &SolverParams::audit_bound, kPositive)},
-      {"output", "dir", read_dir},
-      {"output", "interval", real(&Case::output, &OutputParams::interval, kPositive)},
-      {"output", "max_rows", integer(&Case::output, &OutputParams::max_rows, 1)},
+       real(&Case::solver, &SolverParams::atol_displacement, kPositive), "m",
+       "absolute tolerance of displacements; unset: rtol times the case's scale"},
+      {"solver", "atol_velocity", real(&Case::solver, &SolverParams::atol_velocity, kPositive),
+       "m/s", "absolute tolerance of velocities; unset: rtol times the case's scale"},
+      {"solver", "threads", integer(&Case::solver, &SolverParams::threads, 0), "",
+       "OpenMP threads of the run; 0: every core (or OMP_NUM_THREADS) from 1000 lattice nodes "
+       "up, one below; results do not depend on it"},
+      {"solver", "max_steps", integer(&Case::solver, &SolverParams::max_steps, 1), "",
+       "most steps over the whole run"},
+      {"solver", "audit_bound", real(&Case::solver, &SolverParams::audit_bound, kPositive), "",
+       "largest accepted |energy-audit residual| at t_end, beyond which the run fails; unset: 100 "
+       "× rtol, or 1e-4 for a fixed step"},
+      {"output",
+       "dir",
+       {read_dir, "a path, relative to the case file"},
+       "",
+       "output directory; unset: out/ and the case file's stem, in the working directory"},
+      {"output", "interval", real(&Case::output, &OutputParams::interval, kPositive), "s",
+       "time between rows of friction.csv and traces.csv"},
+      {"output", "max_rows", integer(&Case::output, &OutputParams::max_rows, 1), "",
+       "most rows t_end / interval may give a table, refused before the run (a guard against "
+       "typos)"},
       {"output", "traces",
-       contact_selection(&OutputParams::traces, &OutputParams::trace_ids, &Reader::trace_ids)},
+       contact_selection(&OutputParams::traces, &OutputParams::trace_ids, &Reader::trace_ids), "",
+       "contacts whose traces traces.csv records"},
       {"output", "events",
-       contact_selection(&OutputParams::events, &OutputParams::event_ids, &Reader::event_ids)},
-      {"output", "steps", boolean(&OutputParams::steps)},
-      {"output", "final_state", boolean(&OutputParams::final_state)},
-      {"output", "signals", boolean(&OutputParams::signals)},
+       contact_selection(&OutputParams::events, &OutputParams::event_ids, &Reader::event_ids), "",
+       "contacts whose stick/slip transitions are located"},
+      {"output", "steps", boolean(&OutputParams::steps), "", "write steps.csv"},
+      {"output", "final_state", boolean(&OutputParams::final_state), "",
+       "write final_state.csv, and keep checkpoint.bin at t_end so that a later run.t_end can "
+       "continue the run (run --restart)"},
+      {"output", "signals", boolean(&OutputParams::signals), "",
+       "write signals.csv (block velocity, acoustic signal)"},
       {"output", "format",
-       choice(&Case::output, &OutputParams::format, OutputFormat::csv, OutputFormat::hdf5)},
+       choice(&Case::output, &OutputParams::format, OutputFormat::csv, OutputFormat::hdf5), "",
+       "one CSV file per table, or one HDF5 file (run.h5) with a group per table"},
   };
   return entries;
 }
@@ -390,8 +495,10 @@ void apply_override(toml::table& root, std::string_view text, const std::string&
     throw CaseError(prefix + printable(text) + ": expected section.key=value");
   std::string section = key.substr(0, dot), name = key.substr(dot + 1);
   key = printable(key);
-  if (keys_of(section).empty()) throw CaseError(prefix + key + ": " + unknown_section(section));
-  if (!find_entry(section, name)) throw CaseError(prefix + key + ": " + unknown_key(section, name));
+  if (keys_of(section).empty())
+    throw UnknownKeyError(prefix + key + ": " + unknown_section(section));
+  if (!find_entry(section, name))
+    throw UnknownKeyError(prefix + key + ": " + unknown_key(section, name));
 
   std::string value = trim(text.substr(eq + 1));
   toml::table parsed;
@@ -418,14 +525,14 @@ void read_tables(Reader& r, const toml::table& root, Case& c) {
   for (auto&& [section_key, section] : root) {
     const std::string name = printable(section_key.str());
     if (keys_of(section_key.str()).empty())
-      r.fail(section, name, unknown_section(section_key.str()));
+      r.fail_unknown(section, name, unknown_section(section_key.str()));
     const auto* table = section.as_table();
     if (!table) r.fail(section, name, "expected a table [" + name + "], got " + type_name(section));
     for (auto&& [k, v] : *table) {
       const std::string key = name + "." + printable(k.str());
       const Entry* entry = find_entry(section_key.str(), k.str());
-      if (!entry) r.fail(v, key, unknown_key(section_key.str(), k.str()));
-      entry->apply(r, v, key, c);
+      if (!entry) r.fail_unknown(v, key, unknown_key(section_key.str(), k.str()));
+      entry->rule.apply(r, v, key, c);
       r.given[key] = &v;
     }
   }
@@ -627,7 +734,43 @@ void check_consistency(const Reader& r, const Case& c) {
                   {"solver.method", "does not offer order " + std::to_string(s.order)}});
 }
 
+// A default as a case file spells it ("6.5e6", "\"paper\""), from
+// to_json(Case{}); "unset" where it is absent or the key's own rule refuses it
+// (an empty output.dir, audit_bound 0: values that mean unset).
+std::string default_text(const Entry& e, const nlohmann::json& defaults) {
+  const auto section = defaults.find(std::string(e.section));
+  if (section == defaults.end() || !section->contains(std::string(e.key))) return "unset";
+  const nlohmann::json& v = (*section)[std::string(e.key)];
+  std::string text = v.is_number_float() ? fmt(v.get<double>()) : v.dump();
+  for (const auto& [long_form, short_form] : {std::pair{"e+0", "e"}, {"e+", "e"}, {"e-0", "e-"}})
+    if (auto at = text.find(long_form); at != std::string::npos)
+      text.replace(at, std::string_view(long_form).size(), short_form);
+  try {
+    const toml::table parsed = parse_toml("v = " + text, "default");
+    Reader r{"default", "", {}, {}, {}, {}};
+    Case c;
+    e.rule.apply(r, *parsed.get("v"), std::string(e.key), c);
+  } catch (const CaseError&) {
+    return "unset";
+  } catch (const TomlSyntaxError&) {
+    return "unset";
+  }
+  return text;
+}
+
 }  // namespace
+
+const std::vector<CaseKey>& case_keys() {
+  static const std::vector<CaseKey> keys = [] {
+    const nlohmann::json defaults = to_json(Case{});
+    std::vector<CaseKey> out;
+    for (const Entry& e : schema())
+      out.push_back({std::string(e.section), std::string(e.key), default_text(e, defaults),
+                     std::string(e.unit), e.rule.allowed, std::string(e.help)});
+    return out;
+  }();
+  return keys;
+}
 
 std::string case_key_problem(std::string_view dotted_key) {
   const auto dot = dotted_key.find('.');

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "stickslip/analysis/compare.hpp"
+#include "stickslip/case/keys.hpp"
 #include "stickslip/case/reader.hpp"
 #include "stickslip/integrate/sundials.hpp"
 #include "stickslip/output/writers.hpp"
@@ -35,6 +36,9 @@ int with_exit_codes(Body&& body) {
   using namespace stickslip;
   try {
     return body();
+  } catch (const UnknownKeyError& e) {
+    std::fprintf(stderr, "error: %s; every key: stickslip keys\n", e.what());
+    return 2;
   } catch (const CaseError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
@@ -276,6 +280,34 @@ int sweep_command(const std::string& sweep_file, const std::string& out, int job
   });
 }
 
+// `stickslip keys [KEY] [--markdown]`: the reference of every case key, of
+// one section, or of one key; an unknown one is bad input (exit 2).
+int keys_command(const std::string& key, bool markdown) {
+  using namespace stickslip;
+  if (markdown) {
+    std::fputs(keys_markdown().c_str(), stdout);
+    return 0;
+  }
+  if (key.empty()) {
+    std::fputs(keys_text().c_str(), stdout);
+    return 0;
+  }
+  if (key.find('.') == std::string::npos) {  // a section
+    const std::string text = keys_text(key);
+    if (!text.empty()) {
+      std::fputs(text.c_str(), stdout);
+      return 0;
+    }
+  }
+  if (const std::string problem = case_key_problem(key); !problem.empty()) {
+    std::fprintf(stderr, "error: %s\n", problem.c_str());
+    return 2;
+  }
+  for (const CaseKey& k : case_keys())
+    if (k.section + "." + k.key == key) std::fputs(key_reference(k).c_str(), stdout);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -338,6 +370,13 @@ int main(int argc, char** argv) {
   sweep->add_option("--shard", shard,
                     "i/n: run only the points whose index is i modulo n, for job arrays "
                     "(default --jobs 1); then write the tables from all shards' points");
+  std::string key;
+  bool keys_markdown = false;
+  CLI::App* keys =
+      app.add_subcommand("keys", "every case-file key: default, unit, allowed values and meaning");
+  keys->add_option("key", key, "one key (interface.v_m) or section (interface)");
+  keys->add_flag("--markdown", keys_markdown, "every key as Markdown (docs/keys.md)")
+      ->excludes(keys->get_option("key"));
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -360,6 +399,7 @@ int main(int argc, char** argv) {
   if (*sweep)
     return sweep_command(sweep_file, sweep_out, jobs, sweep_sets, sweep_overwrite,
                          sweep_any_version, sweep_report, shard);
+  if (*keys) return keys_command(key, keys_markdown);
   if (*compare)
     return stickslip::compare_command(dir_a, dir_b, rtol, compare_out, std::cout, std::cerr);
   return 2;

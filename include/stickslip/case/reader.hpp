@@ -19,6 +19,13 @@ class CaseError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A section or key the schema does not have (the message suggests the
+// nearest); the command line adds where every key is listed.
+class UnknownKeyError : public CaseError {
+ public:
+  using CaseError::CaseError;
+};
+
 // Reads and validates `file`. `overrides` are "section.key=value" strings from
 // `--set` (the value is TOML: 0.5, "navier", [1, 2]); they replace the file's
 // values before validation, and errors in them are reported as "--set section.key".
