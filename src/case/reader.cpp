@@ -28,8 +28,8 @@
 #include <utility>
 
 #include "stickslip/case/methods.hpp"
-#include "stickslip/model/contacts.hpp"
-#include "toml_text.hpp"
+#include "stickslip/case/placement.hpp"
+#include "stickslip/case/toml_text.hpp"
 
 namespace stickslip {
 
