@@ -24,9 +24,9 @@
 #include <string>
 #include <vector>
 
+#include "stickslip/case/placement.hpp"
 #include "stickslip/case/reader.hpp"
 #include "stickslip/integrate/make_integrator.hpp"
-#include "stickslip/model/contacts.hpp"
 #include "stickslip/output/checkpoint.hpp"
 
 using namespace stickslip;

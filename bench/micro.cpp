@@ -30,11 +30,11 @@
 #include <map>
 #include <memory>
 
+#include "stickslip/case/placement.hpp"
 #include "stickslip/integrate/lattice_solver.hpp"
 #include "stickslip/integrate/lattice_stage_solver.hpp"
 #include "stickslip/integrate/make_integrator.hpp"
 #include "stickslip/integrate/sundials.hpp"
-#include "stickslip/model/contacts.hpp"
 #include "stickslip/model/system.hpp"
 
 namespace {

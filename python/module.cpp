@@ -19,9 +19,9 @@
 #include <vector>
 
 #include "stickslip/case/case.hpp"
+#include "stickslip/case/placement.hpp"
 #include "stickslip/case/reader.hpp"
-#include "stickslip/integrate/sundials.hpp"
-#include "stickslip/model/contacts.hpp"
+#include "stickslip/integrate/errors.hpp"
 #include "stickslip/output/recorder.hpp"
 #include "stickslip/output/summary.hpp"
 #include "stickslip/output/tables.hpp"

@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "stickslip/analysis/events.hpp"
+#include "stickslip/core/events.hpp"
 
 using namespace stickslip;
 

@@ -6,6 +6,7 @@
 
 #include <catch2/catch.hpp>
 #include <filesystem>
+#include <iostream>
 #include <string>
 #include <vector>
 
@@ -170,7 +171,7 @@ TEST_CASE("a missing case file is refused", "[bad_input]") {
               "cannot read case file: No such file or directory");
 }
 
-TEST_CASE("an output directory that cannot be created is refused", "[bad_input]") {
+TEST_CASE("an output directory that cannot be created is refused", "[bad_input][may_skip]") {
   Sandbox box;
   const fs::path file = box.work / "tiny.toml";
   std::ofstream(file, std::ios::binary) << kTiny;
@@ -181,7 +182,9 @@ TEST_CASE("an output directory that cannot be created is refused", "[bad_input]"
                                 fs::perms::others_exec);  // 0555
   if (std::ofstream(readonly / "probe")) {                // root writes anyway
     fs::remove(readonly / "probe");
-    WARN("skipped: " << readonly << " (mode 0555) is writable for this user (root?)");
+    // ctest reports the test as skipped on this line (SKIP_REGULAR_EXPRESSION
+    // of the [may_skip] tests, tests/CMakeLists.txt), not as passed.
+    std::cout << "SKIPPED: " << readonly << " (mode 0555) is writable for this user (root?)\n";
     return;
   }
   const fs::path out = readonly / "out";

@@ -1,7 +1,7 @@
 #pragma once
 // Cases and systems more than one test file builds.
 #include "stickslip/case/case.hpp"
-#include "stickslip/model/contacts.hpp"
+#include "stickslip/case/placement.hpp"
 #include "stickslip/model/system.hpp"
 
 namespace stickslip::test {

@@ -4,7 +4,7 @@
 #include <random>
 #include <set>
 
-#include "stickslip/model/contacts.hpp"
+#include "stickslip/case/placement.hpp"
 
 using namespace stickslip;
 

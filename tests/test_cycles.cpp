@@ -7,8 +7,8 @@
 #include <stdexcept>
 #include <vector>
 
-#include "stickslip/analysis/cycles.hpp"
 #include "stickslip/case/case.hpp"
+#include "stickslip/core/cycles.hpp"
 #include "stickslip/output/summary.hpp"
 #include "stickslip/run/run.hpp"
 #include "temp_dir.hpp"

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "stickslip/model/contacts.hpp"
+#include "stickslip/case/placement.hpp"
 #include "stickslip/model/parallel_for.hpp"
 #include "stickslip/model/system.hpp"
 

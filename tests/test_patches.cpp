@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "stickslip/case/placement.hpp"
 #include "stickslip/case/reader.hpp"
-#include "stickslip/model/contacts.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/run/run.hpp"
 #include "temp_dir.hpp"

@@ -4,6 +4,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdlib>
+#include <iostream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -210,9 +211,10 @@ TEST_CASE("a sweep refuses results of another code version or case unless told t
   CHECK(box.run({"sweep", "tiny.toml", "--report"}).code == 1);
 }
 
-TEST_CASE("mpirun -n 2 gives the same sweep.csv as --jobs 2", "[sweep][mpi]") {
+TEST_CASE("mpirun -n 2 gives the same sweep.csv as --jobs 2", "[sweep][mpi][may_skip]") {
 #ifndef STICKSLIP_MPIEXEC
-  WARN("built without MPI: not tested");
+  // ctest reports the test as skipped on this line (tests/CMakeLists.txt).
+  std::cout << "SKIPPED: built without MPI\n";
 #else
   Sandbox box;
   box.write("base.toml", kBase);

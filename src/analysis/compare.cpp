@@ -10,7 +10,7 @@
 #include <system_error>
 #include <utility>
 
-#include "stickslip/output/json_number.hpp"
+#include "stickslip/core/json_number.hpp"
 #include "stickslip/output/summary.hpp"
 #include "stickslip/output/writers.hpp"
 

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "stickslip/case/case.hpp"
-#include "toml_text.hpp"
+#include "stickslip/case/toml_text.hpp"
 
 namespace stickslip {
 

@@ -32,8 +32,8 @@
 
 #include "stickslip/case/keys.hpp"
 #include "stickslip/case/methods.hpp"
-#include "stickslip/model/contacts.hpp"
-#include "toml_text.hpp"
+#include "stickslip/case/placement.hpp"
+#include "stickslip/case/toml_text.hpp"
 
 namespace stickslip {
 

@@ -2,7 +2,7 @@
 // lexer that guards it against non-ASCII input) and the wording helpers of
 // one-line error messages (toml_text.hpp).
 
-#include "toml_text.hpp"
+#include "stickslip/case/toml_text.hpp"
 
 #include <algorithm>
 #include <cctype>

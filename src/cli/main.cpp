@@ -17,7 +17,7 @@
 #include "stickslip/analysis/compare.hpp"
 #include "stickslip/case/keys.hpp"
 #include "stickslip/case/reader.hpp"
-#include "stickslip/integrate/sundials.hpp"
+#include "stickslip/integrate/errors.hpp"
 #include "stickslip/output/writers.hpp"
 #include "stickslip/run/run.hpp"
 #include "stickslip/sweep/sweep.hpp"

@@ -229,6 +229,68 @@ void LatticeStageSolver::apply_jacobian(const Eigen::VectorXd& v, Eigen::VectorX
   out += v;
 }
 
+namespace {
+
+// Newton on F(β) = 0 (solve_contacts).
+constexpr int kMaxIterations = 60;
+// Converged when ‖F‖, in the integrator's error weights, is at most this
+// (1e-6 of the integrator's tolerance).
+constexpr double kTolerance = 1e-6;
+// No decrease even along Newton's own step, with ‖F‖ at most this: rounding,
+// not divergence, and the solve is accepted where it is.
+constexpr double kStagnated = 1e-3;
+// Backtracking halves the step while the residual grows (the
+// velocity-weakening branch), down to this fraction of it.
+constexpr double kMinStepFraction = 1.0 / 64;
+// Inexact Newton: GMRES solves to kForcing times what is left to gain
+// (kTolerance/‖F‖) of its preconditioned residual, clamped to
+// [kMinForcing, kMaxForcing]: a little more accurate than the step's own
+// progress.
+constexpr double kForcing = 0.1;
+constexpr double kMinForcing = 1e-3;
+constexpr double kMaxForcing = 0.1;
+// GMRES restarts after this many iterations: the Arnoldi basis is
+// n × (restart + 1) doubles, allocated and cleared at each call.
+constexpr Eigen::Index kGmresRestart = 30;
+
+// What an LU of the contacts' 2 N_c × 2 N_c Newton matrix costs, counted in
+// the iterations it saves (measured on 15×15×10 and 30×30×10 and 60×60×10:
+// docs/PERFORMANCE.md).
+struct LuPrice {
+  // In modified-Newton iterations (steps with the kept LU): 2 N_c /
+  // kUnknownsPerIteration, at least kMinIterations.
+  static constexpr double kMinIterations = 5.0;
+  static constexpr double kUnknownsPerIteration = 20.0;
+  // In Krylov iterations: n / kUnknownsPerKrylov for n = 2 N_c, at least
+  // kMinKrylov (the LU's n³ flops against a solve's n² bytes; at n = 3 586,
+  // 60×60×10: 3.7 s against 5.6 ms).
+  static constexpr double kMinKrylov = 10.0;
+  static constexpr double kUnknownsPerKrylov = 5.0;
+
+  explicit LuPrice(std::size_t sites)
+      : iterations(
+            std::max(kMinIterations, static_cast<double>(2 * sites) / kUnknownsPerIteration)),
+        krylov(std::max(kMinKrylov, static_cast<double>(2 * sites) / kUnknownsPerKrylov)),
+        max_krylov(static_cast<Eigen::Index>(krylov / 2.0)) {}
+
+  double iterations;
+  double krylov;
+  // A Krylov step that needs more than half an LU's price is not worth
+  // finishing with the old LU.
+  Eigen::Index max_krylov;
+};
+
+// Whether modified Newton, having gone from ‖F‖ = `norm` to `trial_norm` in
+// iteration `it`, would need more iterations to converge at that rate than an
+// LU costs, or than are left.
+bool too_slow(double norm, double trial_norm, int it, const LuPrice& price) {
+  const double rate = trial_norm / norm;
+  const double remaining = std::log(kTolerance / trial_norm) / std::log(rate);
+  return remaining > price.iterations || it + 1 + remaining > kMaxIterations;
+}
+
+}  // namespace
+
 // Newton's step J δ = −F(β), by GMRES preconditioned with the kept LU (built
 // at an earlier β, γ or stage). The LU's own step is modified Newton's; the
 // Krylov iterations correct it for how far J has moved since, each for one
@@ -253,37 +315,48 @@ bool LatticeStageSolver::krylov_step(double relative, Eigen::Index max_iteration
   step_.setZero();
   Eigen::Index iterations = max_iterations;
   double error = relative;
-  // Restarted every 30 iterations: the Arnoldi basis is n × (restart + 1)
-  // doubles, allocated and cleared at each call.
   Eigen::internal::gmres(Operator{this}, rhs, step_, Preconditioner{this}, iterations,
-                         std::min<Eigen::Index>(max_iterations, 30), error);
+                         std::min<Eigen::Index>(max_iterations, kGmresRestart), error);
   krylov_iterations_ += iterations;
   return error <= relative;
 }
 
+// The Newton step δ (into step_) for J δ = −F(β), F(β) in residual_, and the
+// LU's refresh policy: the LU is built where there is none; by GMRES
+// (`krylov`: the kept LU's own steps went wrong or slow in this solve) while
+// it preconditions well, and rebuilt at this β when GMRES does not converge
+// in `max_krylov`; dropped (rebuilt at the next step) when the Krylov
+// iterations it has cost beyond one a step since it was built (what a fresh
+// one would need) add up to its price. So a stale LU costs at most twice
+// what rebuilding it at once would have; and γ merely moving rebuilds
+// nothing: in a slip's small steps H ∝ γ is small and any old LU contracts
+// fast (rebuilding on every 20 % change of γ spent half of Fig. 9's block
+// slip in LUs of the 896² matrix).
+LatticeStageSolver::StepSolve LatticeStageSolver::newton_step(bool krylov, double norm,
+                                                              double lu_in_krylov,
+                                                              Eigen::Index max_krylov) {
+  StepSolve solved = StepSolve::kept_lu;
+  if (!jacobian_lu_) {
+    factorize_jacobian();
+    solved = StepSolve::fresh_lu;  // (never by GMRES: its own step is Newton's)
+  } else if (krylov) {
+    const double relative = std::clamp(kForcing * kTolerance / norm, kMinForcing, kMaxForcing);
+    const long before = krylov_iterations_;
+    if (krylov_step(relative, max_krylov)) {
+      stale_krylov_ += static_cast<double>(krylov_iterations_ - before - 1);
+      if (stale_krylov_ > lu_in_krylov) jacobian_lu_.reset();
+      return StepSolve::krylov;
+    }
+    factorize_jacobian();  // too stale to precondition
+    solved = StepSolve::fresh_lu;
+  }
+  step_ = solve_with_lu(-residual_);
+  return solved;
+}
+
 long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
                                         std::span<const double> weights) {
-  constexpr int kMaxIterations = 60;
-  constexpr double kTolerance = 1e-6;  // of the integrator's error weights
-  constexpr double kStagnated = 1e-3;  // accepted if no further progress is possible
-  // Where the kept LU's own steps (modified Newton) would need more
-  // iterations than an LU costs, the steps become Newton's, by Krylov
-  // iterations preconditioned with the kept LU: an LU of the 2 N_c matrix
-  // costs about as much as 2 N_c / 20 modified Newton iterations (at least
-  // 5; measured on 15×15×10 and 30×30×10: docs/PERFORMANCE.md).
-  const double lu_in_iterations = std::max(5.0, static_cast<double>(2 * sites_) / 20.0);
-  // The LU is rebuilt when the Krylov iterations it has cost beyond one a
-  // step since it was built (what a fresh one would need) add up to its
-  // price: ~n/5 Krylov iterations for n = 2 N_c (the LU's n³ flops against
-  // a solve's n² bytes; at n = 3 586, 60×60×10: 3.7 s against 5.6 ms). So a
-  // stale LU costs at most twice what rebuilding it at once would have; and
-  // γ merely moving rebuilds nothing: in a slip's small steps H ∝ γ is small
-  // and any old LU contracts fast (rebuilding on every 20 % change of γ
-  // spent half of Fig. 9's block slip in LUs of the 896² matrix).
-  const double lu_in_krylov = std::max(10.0, static_cast<double>(2 * sites_) / 5.0);
-  // A Krylov step that needs more than half of that is not worth finishing
-  // with the old LU.
-  const auto max_krylov = static_cast<Eigen::Index>(lu_in_krylov / 2.0);
+  const LuPrice lu_price(sites_);
   const double gamma_self = gamma_ * self_green_;
   for (std::size_t i = 0; i < sites_; ++i)
     predicted_speed_[i] = std::hypot(predictor[site_w_[i]], predictor[site_w_[i] + 1]);
@@ -316,6 +389,16 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
         norm = std::max(norm, std::abs(residual_(2 * i + k)) * weights[site_w_[i] + k]);
     return norm;
   };
+  // β + f δ into trial_, f halved while the residual grows; returns ‖F(trial_)‖.
+  auto backtrack = [&](double norm) {
+    double fraction = 1.0, trial_norm = 0.0;
+    for (;;) {
+      trial_ = beta_ + fraction * step_;
+      trial_norm = evaluate(trial_);
+      if (trial_norm < norm || fraction < kMinStepFraction) return trial_norm;
+      fraction *= 0.5;
+    }
+  };
 
   // Start from the predictor's contact forces: β = s0 + γ ḡ H a_c(s_pred).
   for (std::size_t i = 0; i < sites_; ++i) {
@@ -328,42 +411,18 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
   apply_coupling(trial_, product_);
   beta_ = free_speed_ + product_;
   double norm = evaluate(beta_);
-  // `fresh`: the LU was built at this β; `krylov`: the kept LU's own steps
-  // have gone wrong or slow in this solve, Newton's steps are taken instead.
-  bool fresh = false, krylov = false;
+  // The steps' policy: with the kept LU (modified Newton) until its steps go
+  // wrong (no decrease) or slow (converging would cost more than an LU),
+  // then Newton's by GMRES (`krylov`) until an LU is built again.
+  bool krylov = false;
   for (int it = 0; it < kMaxIterations; ++it) {
     if (!std::isfinite(norm)) break;
     if (norm <= kTolerance) return it;
-    if (!jacobian_lu_) {
-      factorize_jacobian();
-      fresh = true;
-      krylov = false;
-    }
-    if (krylov) {  // (a fresh LU never is: its own step is Newton's)
-      // Inexact Newton: the linear solve a little more accurate than the
-      // step's own progress; near the end, what is left to gain.
-      const double relative = std::clamp(0.1 * kTolerance / norm, 1e-3, 0.1);
-      const long before = krylov_iterations_;
-      if (krylov_step(relative, max_krylov)) {
-        stale_krylov_ += static_cast<double>(krylov_iterations_ - before - 1);
-        if (stale_krylov_ > lu_in_krylov) jacobian_lu_.reset();  // rebuilt at the next step
-      } else {  // too stale to precondition: rebuild it at this β
-        factorize_jacobian();
-        fresh = true;
-        krylov = false;
-      }
-    }
-    if (!krylov) step_ = solve_with_lu(-residual_);
-    // Backtrack while the residual grows (the velocity-weakening branch).
-    double fraction = 1.0, trial_norm = 0.0;
-    for (;;) {
-      trial_ = beta_ + fraction * step_;
-      trial_norm = evaluate(trial_);
-      if (trial_norm < norm || fraction < 1.0 / 64) break;
-      fraction *= 0.5;
-    }
+    const StepSolve solved = newton_step(krylov, norm, lu_price.krylov, lu_price.max_krylov);
+    krylov = solved == StepSolve::krylov;
+    const double trial_norm = backtrack(norm);
     if (!(trial_norm < norm)) {
-      if (!fresh && !krylov) {  // the old LU's step: take Newton's from here
+      if (solved == StepSolve::kept_lu) {  // the old LU's step: take Newton's from here
         evaluate(beta_);
         krylov = true;
         continue;
@@ -375,17 +434,12 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
       // Newton's own step and still no decrease: take the damped step
       // anyway; Newton's steps continue from it.
       krylov = true;
-    }
-    // A slow contraction with the old LU: Newton's steps from here, if
-    // finishing at this rate would cost more than an LU.
-    if (!fresh && !krylov && trial_norm > kTolerance) {
-      const double rate = trial_norm / norm;
-      const double remaining = std::log(kTolerance / trial_norm) / std::log(rate);
-      if (remaining > lu_in_iterations || it + 1 + remaining > kMaxIterations) krylov = true;
+    } else if (solved == StepSolve::kept_lu && trial_norm > kTolerance &&
+               too_slow(norm, trial_norm, it, lu_price)) {
+      krylov = true;  // a slow contraction with the old LU: Newton's steps from here
     }
     beta_ = trial_;
     norm = trial_norm;
-    fresh = false;
   }
   throw StageNotConverged("the contacts' coupled stage equations did not converge");
 }

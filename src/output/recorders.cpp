@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <fstream>
 
-#include "stickslip/analysis/cycles.hpp"
+#include "stickslip/core/cycles.hpp"
 #include "stickslip/output/recorder.hpp"
 #include "stickslip/output/tables.hpp"
 #include "stickslip/output/writers.hpp"
@@ -56,7 +56,7 @@ class ContactsRecorder final : public Recorder {
 // friction: F_f and F_f/F_N at the output times. At the end, from these
 // samples, kept in memory as they are recorded (so it costs nothing during
 // the run): μ over whole cycles of F_f and F_f's relative spread
-// (analysis/cycles.hpp). A restart reads back the samples before its
+// (core/cycles.hpp). A restart reads back the samples before its
 // checkpoint, the only time the table is read.
 class FrictionRecorder final : public Recorder {
  public:

@@ -5,7 +5,7 @@
 #include <fstream>
 #include <stdexcept>
 
-#include "stickslip/output/json_number.hpp"
+#include "stickslip/core/json_number.hpp"
 #include "stickslip/output/writers.hpp"
 
 namespace stickslip {
@@ -29,7 +29,7 @@ std::optional<double> optional_number(const nlohmann::json& j, const char* name)
   return std::isnan(x) ? std::nullopt : std::optional<double>(x);
 }
 
-// The inverses of analysis/events.hpp's to_json.
+// The inverses of core/events.hpp's to_json.
 ContactEventStats contact_statistics_from_json(const nlohmann::json& j) {
   ContactEventStats s;
   s.contact = static_cast<int>(number(j, "contact"));

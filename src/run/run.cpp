@@ -16,11 +16,11 @@
 #include <optional>
 #include <utility>
 
-#include "stickslip/analysis/events.hpp"
+#include "stickslip/case/placement.hpp"
+#include "stickslip/core/events.hpp"
 #include "stickslip/integrate/make_integrator.hpp"
 #include "stickslip/integrate/sundials.hpp"
 #include "stickslip/integrate/tolerances.hpp"
-#include "stickslip/model/contacts.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/output/checkpoint.hpp"
 #include "stickslip/output/recorder.hpp"

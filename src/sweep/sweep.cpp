@@ -179,7 +179,7 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
   std::ostringstream table;
   table << "point";
   for (const auto& a : sweep.axes) table << ',' << a.key;
-  // regime: what F_f does in the window (analysis/cycles.hpp); μ is a friction
+  // regime: what F_f does in the window (core/cycles.hpp); μ is a friction
   // coefficient only in "stick-slip" and "steady sliding".
   table << ",status,mu,mu_whole_cycles,regime,F_f_spread,theta,contacts,F_N,energy_residual,slips,"
            "mean_"

@@ -12,8 +12,8 @@
 #include <set>
 #include <sstream>
 
-#include "../case/toml_text.hpp"
 #include "stickslip/case/reader.hpp"
+#include "stickslip/case/toml_text.hpp"
 #include "stickslip/sweep/sweep.hpp"
 
 namespace stickslip {

@@ -26,7 +26,7 @@
 #include <string>
 #include <vector>
 
-#include "stickslip/analysis/events.hpp"
+#include "stickslip/core/events.hpp"
 #include "stickslip/output/tables.hpp"
 
 namespace stickslip {

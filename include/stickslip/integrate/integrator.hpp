@@ -15,22 +15,11 @@
 #include "stickslip/case/case.hpp"
 #include "stickslip/case/methods.hpp"
 #include "stickslip/integrate/solver_stats.hpp"
+#include "stickslip/integrate/step_record.hpp"
 #include "stickslip/integrate/tolerances.hpp"
 #include "stickslip/model/system.hpp"
 
 namespace stickslip {
-
-// One accepted step: where it ended, its size, the weighted RMS norm of
-// its local error estimate (≤ 1 for an accepted adaptive step; NaN where the
-// method has no estimate), and h times the fastest growth rate of a contact
-// past its peak force.
-struct StepRecord {
-  double t = 0.0, h = 0.0, error = 0.0;
-  double h_lambda = 0.0;  // h × System::weakening_rate at the step's end
-  // multirate: the contacts this step left to their own sub-steps, and those
-  // sub-steps (0 for the other methods).
-  long fast_contacts = 0, substeps = 0;
-};
 
 struct IntegratorOptions {
   std::vector<int> watched_contacts;               // stick/slip root functions, none if empty

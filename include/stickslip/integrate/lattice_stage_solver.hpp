@@ -74,6 +74,13 @@ class LatticeStageSolver {
   Eigen::VectorXd solve_with_lu(const Eigen::VectorXd& r) const;
   void apply_jacobian(const Eigen::VectorXd& v, Eigen::VectorXd& out);
   bool krylov_step(double relative, Eigen::Index max_iterations);
+  // How a Newton iteration solved J δ = −F(β) for its step (newton_step).
+  enum class StepSolve {
+    fresh_lu,  // with an LU built at this β: Newton's step
+    kept_lu,   // with the LU kept from an earlier β, γ or stage: modified Newton's
+    krylov,    // by GMRES preconditioned with the kept LU: Newton's
+  };
+  StepSolve newton_step(bool krylov, double norm, double lu_in_krylov, Eigen::Index max_krylov);
 
   const System& system_;
   double max_gamma_lambda_;

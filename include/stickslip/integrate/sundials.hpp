@@ -13,13 +13,9 @@
 #include <string>
 #include <utility>
 
-namespace stickslip {
+#include "stickslip/integrate/errors.hpp"
 
-// Thrown when an integrator fails; `what()` says where (time) and why.
-class IntegrationError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
+namespace stickslip {
 
 // Throws IntegrationError naming `call` when a SUNDIALS call returns < 0.
 // Calls on an integrator's memory use SteppingIntegrator::check instead,

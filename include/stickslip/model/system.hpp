@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "stickslip/case/case.hpp"
-#include "stickslip/model/contacts.hpp"
+#include "stickslip/case/placement.hpp"
 #include "stickslip/model/friction_law.hpp"
 
 namespace stickslip {

@@ -16,9 +16,9 @@
 #include <string>
 #include <vector>
 
-#include "stickslip/analysis/events.hpp"
 #include "stickslip/case/case.hpp"
-#include "stickslip/integrate/integrator.hpp"
+#include "stickslip/core/events.hpp"
+#include "stickslip/integrate/step_record.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/output/summary.hpp"
 #include "stickslip/output/tables.hpp"

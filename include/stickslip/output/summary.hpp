@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "stickslip/analysis/cycles.hpp"
-#include "stickslip/analysis/events.hpp"
+#include "stickslip/core/cycles.hpp"
+#include "stickslip/core/events.hpp"
 #include "stickslip/integrate/solver_stats.hpp"
 
 namespace stickslip {
@@ -19,7 +19,7 @@ namespace stickslip {
 inline constexpr const char* kSummaryFile = "summary.json";
 
 // μ between the first and the last downward crossing of F_f through its
-// window mean (analysis/cycles.hpp).
+// window mean (core/cycles.hpp).
 struct WholeCycleMu {
   double mu = 0.0;
   double from = 0.0, to = 0.0;  // [s]
@@ -51,7 +51,7 @@ struct Summary {
   double mu = 0.0;  // over [average_from, t_end], from the friction impulse
   std::optional<WholeCycleMu> mu_whole_cycles;
   std::optional<double> F_f_spread;  // sd/mean of F_f's samples in the window
-  // What F_f does in the window (analysis/cycles.hpp); whether μ is a
+  // What F_f does in the window (core/cycles.hpp); whether μ is a
   // friction coefficient. Empty with fewer than two samples in the window.
   std::optional<WindowRegime> regime;
   double theta = 0.0;

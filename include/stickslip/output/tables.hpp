@@ -14,8 +14,8 @@
 #include <utility>
 #include <vector>
 
-#include "stickslip/analysis/events.hpp"
 #include "stickslip/case/case.hpp"
+#include "stickslip/core/events.hpp"
 
 namespace stickslip {
 

@@ -1,4 +1,4 @@
-#include "stickslip/analysis/events.hpp"
+#include "stickslip/core/events.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
-#include "stickslip/output/json_number.hpp"
+#include "stickslip/core/json_number.hpp"
 
 namespace stickslip {
 

@@ -1,4 +1,4 @@
-#include "stickslip/analysis/cycles.hpp"
+#include "stickslip/core/cycles.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "stickslip/model/contacts.hpp"
+#include "stickslip/case/placement.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,6 +1,6 @@
 #pragma once
-// TOML text for the case and sweep readers (private to src/case and
-// src/sweep/sweep_reader.cpp): parsing
+// TOML text for the case and sweep readers (src/case and
+// src/sweep/sweep_reader.cpp; not the library's interface): parsing
 // with the guard against toml++ 3.3's undefined behaviour on non-ASCII
 // input, and the wording helpers of one-line error messages.
 
