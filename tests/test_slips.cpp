@@ -1,4 +1,4 @@
-// slips.csv, the event catalogue (README, "slips.csv"): a row per slip of a
+// slips.csv, the event catalogue (docs/USAGE.md, "slips.csv"): a row per slip of a
 // watched contact, checked against the state at its two events as an
 // integration of our own reaches them, its peak speed against the solution
 // sampled densely inside the slip, and a slip under way at a checkpoint

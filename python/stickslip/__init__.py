@@ -9,7 +9,7 @@
 
 The physics and the numerics are the C++ library the command line uses
 (`stickslip._core`); this package turns cases, runs and their tables into
-Python objects and numpy arrays. The README's "Python" section says more.
+Python objects and numpy arrays. docs/USAGE.md, "Python", says more.
 """
 
 from ._case import Case

@@ -103,7 +103,7 @@ class Slips(_Table):
     contact: np.ndarray  # contact id
     duration: np.ndarray  # [s], t_end - t_start
     slip: np.ndarray  # [m], |u(t_end) - u(t_start)|, u the contact's in-plane displacement
-    peak_speed: np.ndarray  # [m/s], the largest |s| sampled in between (README)
+    peak_speed: np.ndarray  # [m/s], the largest |s| sampled in between (docs/USAGE.md)
     load_start: np.ndarray  # [N], |force of the block on the contact| at t_start
     load_end: np.ndarray  # [N], the same at t_end
     load_drop: np.ndarray  # [N], load_start - load_end

@@ -242,7 +242,7 @@ class EventsRecorder final : public Recorder {
 // slips: the catalogue, one row per slip of a watched contact, from its slip
 // event to its next stick event, written at the stick: when and how long,
 // how far the contact moved, how fast at most, and how much the load on it
-// and the block's friction fell (README, "slips.csv"). A slip already under
+// and the block's friction fell (docs/USAGE.md, "slips.csv"). A slip already under
 // way at t = 0 (a run started sliding) or still going at t_end has no row.
 // The peak speed is the largest of the contact's speed at the two events, at
 // every state the integrator returned in between (output times, stops, other
@@ -407,7 +407,7 @@ class StepsRecorder final : public Recorder {
 };
 
 // signals: the block's centre-of-mass velocity, the contacts' impulse and
-// the acoustic signal, its second difference over the output times (README).
+// the acoustic signal, its second difference over the output times (docs/USAGE.md, "signals.csv").
 class SignalsRecorder final : public Recorder {
  public:
   static constexpr const char* kTable = "signals";

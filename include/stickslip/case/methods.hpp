@@ -5,7 +5,7 @@
 // summary.json says about a method: adding a method is its enumerator in
 // case.hpp's Method, its row in methods.cpp, its set-up in the adapter of its
 // package (integrate/; a package of its own: a stepper, and its case in
-// make_integrator.cpp), and its line in the README's [solver] documentation.
+// make_integrator.cpp), and its line in the [solver] documentation of docs/USAGE.md.
 
 #include <span>
 
