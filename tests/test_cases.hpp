@@ -14,6 +14,15 @@ inline Case two_contact_case() {
   return c;
 }
 
+// The same pair as the sections of a case file, for tests that write one.
+inline constexpr const char* kTwoContactToml = R"([lattice]
+nx = 6
+ny = 6
+nz = 4
+[interface]
+contacts = [ { site = [1, 2], v_star = 4.75e-4 }, { site = [4, 2], v_star = 2.09e-3 } ]
+)";
+
 inline System make_system(const Case& c) {
   return System(c, place_contacts(c.lattice, c.interface));
 }

@@ -28,6 +28,7 @@
 #include "stickslip/run/run.hpp"
 #include "stickslip/version.hpp"
 #include "temp_dir.hpp"
+#include "test_cases.hpp"
 
 namespace fs = std::filesystem;
 using namespace stickslip;
@@ -48,13 +49,7 @@ std::vector<double> first_column(const fs::path& csv) {
   return t;
 }
 
-const char* kCase = R"([lattice]
-nx = 6
-ny = 6
-nz = 4
-[interface]
-contacts = [ { site = [1, 2], v_star = 4.75e-4 }, { site = [4, 2], v_star = 2.09e-3 } ]
-[run]
+const std::string kCase = std::string(stickslip::test::kTwoContactToml) + R"([run]
 t_end = 1.5e-3
 average_from = 5e-4
 checkpoint_every = 2e-4

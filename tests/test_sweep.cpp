@@ -12,6 +12,7 @@
 #include "stickslip/case/reader.hpp"
 #include "stickslip/sweep/sweep.hpp"
 #include "stickslip/version.hpp"
+#include "test_cases.hpp"
 
 namespace test = stickslip::test;
 
@@ -431,13 +432,7 @@ TEST_CASE("an interrupted sweep continues its stopped points from their checkpoi
   // slips. At rtol 1e-6 that moved μ by up to 1.8e-5 over a 2 ms window (with
   // the machine loaded, where the stop falls elsewhere); at rtol 1e-7 the
   // perturbation is ten times smaller.
-  box.write("two.toml", R"([lattice]
-nx = 6
-ny = 6
-nz = 4
-[interface]
-contacts = [ { site = [1, 2], v_star = 4.75e-4 }, { site = [4, 2], v_star = 2.09e-3 } ]
-[solver]
+  box.write("two.toml", std::string(stickslip::test::kTwoContactToml) + R"([solver]
 rtol = 1e-7
 [run]
 t_end = 3e-3
@@ -505,13 +500,7 @@ TEST_CASE("SIGINT to a sweep alone stops its running points with a checkpoint",
   // stopped is still running when the sweep is given up on, 20 s after the
   // signal (and then stopped with SIGTERM, which the sweep passes on).
   Sandbox box;
-  box.write("two.toml", R"([lattice]
-nx = 6
-ny = 6
-nz = 4
-[interface]
-contacts = [ { site = [1, 2], v_star = 4.75e-4 }, { site = [4, 2], v_star = 2.09e-3 } ]
-[run]
+  box.write("two.toml", std::string(stickslip::test::kTwoContactToml) + R"([run]
 t_end = 0.1
 average_from = 1e-3
 checkpoint_every = 1e-3

@@ -19,6 +19,7 @@
 #include "stickslip/output/writers.hpp"
 #include "stickslip/run/run.hpp"
 #include "temp_dir.hpp"
+#include "test_cases.hpp"
 
 namespace fs = std::filesystem;
 using namespace stickslip;
@@ -228,13 +229,7 @@ TEST_CASE("a run in format hdf5 holds the same numbers as the same run's CSV fil
   const test::TempDir tmp("stickslip_test_hdf5_run");
   const fs::path& box = tmp.path;
   // Every output on: two contacts that stick and slip on a small lattice.
-  const std::string text = R"([lattice]
-nx = 6
-ny = 6
-nz = 4
-[interface]
-contacts = [ { site = [1, 2], v_star = 4.75e-4 }, { site = [4, 2], v_star = 2.09e-3 } ]
-[run]
+  const std::string text = std::string(stickslip::test::kTwoContactToml) + R"([run]
 t_end = 1e-3
 average_from = 2e-4
 [output]
