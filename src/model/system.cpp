@@ -213,9 +213,13 @@ void System::rhs_explicit(double t, std::span<const double> y, std::span<double>
   std::copy(y.begin() + 3 * n_, y.begin() + 6 * n_, ydot.begin());  // u' = w
   lattice_accelerations(t, y.subspan(0, 3 * n_), y.subspan(3 * n_, 3 * n_),
                         ydot.subspan(3 * n_, 3 * n_));
-  ydot[quadrature_index(work_in)] = power_in(t, y);
-  ydot[quadrature_index(dissipated)] = dissipation(y);
-  ydot[quadrature_index(friction_impulse)] = friction_force(t, y);
+  const auto rates = quadrature_rates(t, y);
+  std::copy(rates.begin(), rates.end(), ydot.begin() + quadrature_index(work_in));
+}
+
+std::array<double, System::kQuadratures> System::quadrature_rates(double t,
+                                                                  std::span<const double> y) const {
+  return {power_in(t, y), dissipation(y), friction_force(t, y)};
 }
 
 void System::rhs_implicit(double, std::span<const double> y, std::span<double> ydot) const {

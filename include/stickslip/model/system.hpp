@@ -147,6 +147,10 @@ class System {
   void lattice_accelerations(double t, std::span<const double> u, std::span<const double> w,
                              std::span<double> acc) const;
 
+  // The quadratures' rates at (t, y), in Quadrature's order: P_in, D and F_f
+  // (§7, §8); they depend on u and w only. f's last three rows.
+  std::array<double, kQuadratures> quadrature_rates(double t, std::span<const double> y) const;
+
   // ∂f/∂y of `part`, with every diagonal entry present (integrators form I − γJ
   // in place). Quadrature rows are left zero: nothing depends on them.
   SparseJacobian jacobian_pattern(JacobianPart part) const;
