@@ -103,7 +103,7 @@ System::System(const Case& c, std::vector<Contact> contacts)
   k1_over_m_ = g1_ / (a_ * a_);
   k2_over_m_ = g2_ / (a_ * a_);
   kd_over_m_ = k1_over_m_;
-  const double omega0 = std::sqrt(g1_ + g2_) / a_;
+  const double omega0 = longitudinal_speed() / a_;
   eta_ = c.damping.bulk * omega0;
   eta_c_ = c.damping.contact * omega0;
   v_ = c.drive.velocity;

@@ -13,6 +13,7 @@
 // accurate as the state itself: they feed the energy audit (§8) and μ (§7).
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <span>
 #include <stdexcept>
@@ -228,6 +229,10 @@ class System {
   double mass() const { return mass_; }
   double g1() const { return g1_; }
   double g2() const { return g2_; }
+  // k1 = m G1/a² of §2: one elastic spring's stiffness [N/m].
+  double k1() const { return mass_ * g1_ / (a_ * a_); }
+  // c_l = √(G1 + G2): the longitudinal sound speed [m/s].
+  double longitudinal_speed() const { return std::sqrt(g1_ + g2_); }
   double spacing() const { return a_; }
   double drive_velocity() const { return v_; }
   // The displacement one elastic spring k1 takes to balance a site's full
