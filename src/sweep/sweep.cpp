@@ -141,8 +141,9 @@ PointState point_state(const SweepPoint& point, const fs::path& dir, std::string
   }
   if (!summary) {
     if (fs::exists(dir / "failed")) return PointState::failed;
-    return fs::exists(dir / "friction.csv") || fs::exists(dir / kHdf5File) ? PointState::incomplete
-                                                                           : PointState::absent;
+    return fs::exists(dir / csv_file_name(run_table::kFriction)) || fs::exists(dir / kHdf5File)
+               ? PointState::incomplete
+               : PointState::absent;
   }
   if (!any_version) {
     // Every attempt's version: a restart with --any-version may have mixed them.
