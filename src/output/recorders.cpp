@@ -99,10 +99,13 @@ class FrictionRecorder final : public Recorder {
 };
 
 // traces: the traced contacts' in-plane velocities at the output times (in
-// CSV vx_<id>, vy_<id> per contact; in HDF5 vx and vy as [time × contact]).
+// CSV vx_<id>, vy_<id> per contact (member_column); in HDF5 vx and vy as
+// [time × contact]).
 class TracesRecorder final : public Recorder {
  public:
   static constexpr const char* kTable = run_table::kTraces;
+  static constexpr const char* kVx = "vx";
+  static constexpr const char* kVy = "vy";
   explicit TracesRecorder(const RecorderSetup& s)
       : system_(s.system), traced_(s.traced), table_(open_table(s, spec(s.traced))) {
     row_.resize(1 + 2 * traced_.size());
@@ -122,8 +125,8 @@ class TracesRecorder final : public Recorder {
   static TableSpec spec(const std::vector<int>& traced) {
     TableSpec spec{kTable, {time_column()}, "contact", traced};
     for (std::size_t k = 0; k < traced.size(); ++k)
-      for (const char* axis : {"vx", "vy"}) {
-        Column c = real(std::string(axis) + "_" + std::to_string(traced[k]), "m/s");
+      for (const char* axis : {kVx, kVy}) {
+        Column c = real(member_column(axis, traced[k]), "m/s");
         c.dataset = axis;
         c.member = static_cast<int>(k);
         spec.columns.push_back(std::move(c));
@@ -189,7 +192,7 @@ class EventsRecorder final : public Recorder {
     const auto rows = static_cast<std::size_t>(
         std::upper_bound(table.t.begin(), table.t.end(), *s.resume_at) - table.t.begin());
     auto column = [&](int id) {
-      const auto& values = table.column("vx_" + std::to_string(id));
+      const auto& values = table.column(member_column(TracesRecorder::kVx, id));
       return std::vector<double>(values.begin(),
                                  values.begin() + static_cast<std::ptrdiff_t>(rows));
     };

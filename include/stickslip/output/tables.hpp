@@ -37,6 +37,14 @@ inline constexpr const char* kFinalState = "final_state";
 // Table `table`'s CSV file in a run's directory: <table>.csv.
 std::string csv_file_name(std::string_view table);
 
+// Member `member` of a 2-D dataset (Column::dataset) as a column of its own,
+// as a CSV header and read_run_table name it: <dataset>_<member> (traces: vx of
+// contact 3 is vx_3). The Python module names them through this too.
+std::string member_column(std::string_view dataset, int member);
+// The member of `dataset` that column `name` is, if it is one of them
+// (member_column's inverse: vx_3 → 3).
+std::optional<int> column_member(std::string_view name, std::string_view dataset);
+
 // A column's values are doubles in the row; integer and label columns hold
 // whole numbers (a label column's number is the index of its text in `labels`).
 enum class ColumnType { real, integer, label };
