@@ -253,8 +253,8 @@ def load(dir):
     directory, saying to read its table with load_sweep)."""
     dir = Path(dir)
     if not _core.has_table(dir, "friction"):
-        if (dir / "sweep.csv").is_file():
-            raise OutputError(f"{dir}: a sweep directory: read its sweep.csv with "
+        if (dir / _core.sweep_file).is_file():
+            raise OutputError(f"{dir}: a sweep directory: read its {_core.sweep_file} with "
                               f"stickslip.load_sweep({str(dir)!r}), a point with "
                               f"stickslip.load() of its subdirectory")
         raise OutputError(f"{dir}: holds no run (no friction.csv or run.h5)")
