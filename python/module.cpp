@@ -209,6 +209,10 @@ PYBIND11_MODULE(_core, m) {
       py::arg("text"), py::arg("source"), py::arg("overrides"));
   m.def("to_toml", [](const Case& c) { return to_toml(c); });
   m.def("recorder_tables", &recorder_tables);
+  // traces' columns vx_<id>, vy_<id>, named where the recorder names them.
+  m.def("member_column", &member_column, py::arg("dataset"), py::arg("member"));
+  m.def("column_member", &column_member, py::arg("name"), py::arg("dataset"));
+  m.attr("sweep_file") = kSweepFile;
   m.def("case_key_problem", [](const std::string& key) { return case_key_problem(key); });
 
   m.def("run", &run, py::arg("case"), py::arg("out"), py::arg("overwrite"), py::arg("restart"),

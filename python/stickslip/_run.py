@@ -68,8 +68,8 @@ class Traces(_Table):
     def _columns(self):
         columns = {"t": self.t}
         for k, id in enumerate(self.contact.tolist()):
-            columns[f"vx_{id}"] = self.vx[:, k]
-            columns[f"vy_{id}"] = self.vy[:, k]
+            columns[_core.member_column("vx", id)] = self.vx[:, k]
+            columns[_core.member_column("vy", id)] = self.vy[:, k]
         return columns
 
     def __repr__(self):
@@ -253,8 +253,8 @@ def load(dir):
     directory, saying to read its table with load_sweep)."""
     dir = Path(dir)
     if not _core.has_table(dir, "friction"):
-        if (dir / "sweep.csv").is_file():
-            raise OutputError(f"{dir}: a sweep directory: read its sweep.csv with "
+        if (dir / _core.sweep_file).is_file():
+            raise OutputError(f"{dir}: a sweep directory: read its {_core.sweep_file} with "
                               f"stickslip.load_sweep({str(dir)!r}), a point with "
                               f"stickslip.load() of its subdirectory")
         raise OutputError(f"{dir}: holds no run (no friction.csv or run.h5)")
@@ -271,14 +271,17 @@ def load(dir):
     traces = None
     if _core.has_table(dir, "traces"):
         columns = dict(_core.read_columns(dir, "traces"))  # t, vx_<id>, vy_<id>, ...
-        ids = [int(name[3:]) for name in columns if name.startswith("vx_")]
+        ids = [_core.column_member(name, "vx") for name in columns]
+        ids = [i for i in ids if i is not None]
         t = columns["t"]
-        traces = Traces(
-            t=t,
-            contact=np.array(ids, dtype=np.int64),
-            vx=np.stack([columns[f"vx_{i}"] for i in ids], axis=1) if ids else np.empty((t.size, 0)),
-            vy=np.stack([columns[f"vy_{i}"] for i in ids], axis=1) if ids else np.empty((t.size, 0)),
-        )
+
+        def by_contact(axis):
+            if not ids:
+                return np.empty((t.size, 0))
+            return np.stack([columns[_core.member_column(axis, i)] for i in ids], axis=1)
+
+        traces = Traces(t=t, contact=np.array(ids, dtype=np.int64), vx=by_contact("vx"),
+                        vy=by_contact("vy"))
     events = None
     if _core.has_table(dir, "events"):
         e = _core.read_events(dir)

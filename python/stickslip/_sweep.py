@@ -59,9 +59,10 @@ def load_sweep(dir):
     """The table of the sweep in `dir` (its sweep.csv, a row per point), as
     sweep() returns it: a pandas DataFrame if pandas is installed, else a
     dict of numpy arrays. OutputError if `dir` has no sweep.csv."""
-    path = Path(dir) / "sweep.csv"
+    path = Path(dir) / _core.sweep_file
     if not path.is_file():
-        raise OutputError(f"{dir}: no sweep.csv (not a sweep's directory, or no point has finished)")
+        raise OutputError(f"{dir}: no {_core.sweep_file} (not a sweep's directory, or no point has "
+                          "finished)")
     return _read_csv(path)
 
 

@@ -210,7 +210,7 @@ int sweep_shard(const stickslip::Sweep& sweep, const std::vector<stickslip::Swee
       "shard %d/%d: %zu of its points ran, %zu failed; %zu of %zu points of the sweep "
       "finished; tables: %s, %s\n",
       shard.index, shard.count, outcome.ran, outcome.failed, finished, points.size(),
-      (options.out_dir / "sweep.csv").c_str(), (options.out_dir / "sweep_summary.csv").c_str());
+      (options.out_dir / kSweepFile).c_str(), (options.out_dir / kSweepSummaryFile).c_str());
   return outcome.failed > 0 ? 1 : 0;
 }
 
@@ -241,8 +241,8 @@ int sweep_command(const std::string& sweep_file, const std::string& out, int job
       const std::size_t finished =
           write_sweep_tables(sweep, points, options.out_dir, options.any_version);
       std::printf("%zu of %zu points finished; tables: %s, %s\n", finished, points.size(),
-                  (options.out_dir / "sweep.csv").c_str(),
-                  (options.out_dir / "sweep_summary.csv").c_str());
+                  (options.out_dir / kSweepFile).c_str(),
+                  (options.out_dir / kSweepSummaryFile).c_str());
       return finished == points.size() ? 0 : 1;
     }
     if (sharded) return sweep_shard(sweep, points, options, shard, jobs);
@@ -274,8 +274,8 @@ int sweep_command(const std::string& sweep_file, const std::string& out, int job
     const std::size_t finished =
         write_sweep_tables(sweep, points, options.out_dir, options.any_version);
     std::printf("%zu of %zu points finished (%zu already were); tables: %s, %s\n", finished,
-                points.size(), outcome.skipped, (options.out_dir / "sweep.csv").c_str(),
-                (options.out_dir / "sweep_summary.csv").c_str());
+                points.size(), outcome.skipped, (options.out_dir / kSweepFile).c_str(),
+                (options.out_dir / kSweepSummaryFile).c_str());
     return finished == points.size() ? 0 : 1;
   });
 }

@@ -147,15 +147,14 @@ long LatticeStageSolver::solve(double t, double gamma, std::span<const double> p
   for (std::size_t r = 0; r < n3; ++r) u[r] += gamma * w[r];
 
   // The quadratures: q = b_q + γ q'(t, z), their rates depending on u and w only.
-  z[system_.quadrature_index(System::work_in)] += gamma * system_.power_in(t, z);
-  double dissipation = system_.dissipation(z);
+  auto rates = system_.quadrature_rates(t, z);
   for (const std::size_t j : prescribed_sites_) {  // −m a_c·s of their law, left out
     const std::array<double, 2> s{z[site_w_[j]], z[site_w_[j] + 1]};
     const auto a = system_.site_acceleration(j, s);
-    dissipation += system_.mass() * (a[0] * s[0] + a[1] * s[1]);
+    rates[System::dissipated] += system_.mass() * (a[0] * s[0] + a[1] * s[1]);
   }
-  z[system_.quadrature_index(System::dissipated)] += gamma * dissipation;
-  z[system_.quadrature_index(System::friction_impulse)] += gamma * system_.friction_force(t, z);
+  const auto first = static_cast<std::size_t>(system_.quadrature_index(System::work_in));
+  for (std::size_t q = 0; q < rates.size(); ++q) z[first + q] += gamma * rates[q];
 
   // A stage that leaves a contact past its peak force with γ λ > 1 (λ: the
   // growth rate of its slip, System::weakening_rate) is refused, and the

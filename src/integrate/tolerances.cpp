@@ -26,8 +26,7 @@ ToleranceScales tolerance_scales(const System& system) {
   // Without contact forces (ε = 0) the lattice's own scale: the drive's
   // displacement over the time sound takes to cross one cell.
   double displacement = system.contact_displacement();
-  if (!(displacement > 0))
-    displacement = speed * system.spacing() / std::sqrt(system.g1() + system.g2());
+  if (!(displacement > 0)) displacement = speed * system.spacing() / system.longitudinal_speed();
   return {kVelocityFraction * speed, kDisplacementFraction * displacement};
 }
 
@@ -44,9 +43,9 @@ std::vector<double> absolute_tolerances(const System& system, const SolverParams
   std::vector<double> atol(static_cast<std::size_t>(system.size()));
   std::fill(atol.begin(), atol.begin() + 3 * n, solver.atol_displacement);
   std::fill(atol.begin() + 3 * n, atol.begin() + 6 * n, solver.atol_velocity);
-  const double k1 = system.mass() * system.g1() / (system.spacing() * system.spacing());
+  const double k1 = system.k1();
   const double energy = k1 * system.spacing() * solver.atol_displacement;
-  const double c_l = std::sqrt(system.g1() + system.g2());
+  const double c_l = system.longitudinal_speed();
   atol[system.quadrature_index(System::work_in)] = energy;
   atol[system.quadrature_index(System::dissipated)] = energy;
   atol[system.quadrature_index(System::friction_impulse)] =

@@ -28,6 +28,18 @@ constexpr std::array<Corner, 8> kCorners = {{
     {1, 1, 1, +1, +1, +1},
 }};
 
+// Σ_corners s·u of a cell, 4 D_c (MODEL.md §3): the forces and the energy
+// both read the cell's strain from here.
+inline double corner_sum(const double* u, const std::int64_t (&corner)[8]) {
+  double d = 0.0;
+  for (int c = 0; c < 8; ++c) {
+    const Corner& k = kCorners[c];
+    const double* uc = u + 3 * corner[c];
+    d += k.sx * uc[0] + k.sy * uc[1] + k.sz * uc[2];
+  }
+  return d;
+}
+
 }  // namespace
 
 template <class Face>
@@ -58,9 +70,18 @@ void System::cells(int iz, Cell&& cell) const {
     }
 }
 
-template <class Driven>
-void System::driven(Driven&& node_tied) const {
+template <class Node>
+void System::top_layer(Node&& node_tied) const {
   for (std::int64_t n = node(0, 0, nz_ - 1); n < n_; ++n) node_tied(n);
+}
+
+template <class Driven>
+void System::driven(double t, const double* u, const double* w, Driven&& node_tied) const {
+  const double anchor = v_ * t;
+  top_layer([&](std::int64_t n) {
+    const double *un = u + 3 * n, *wn = w + 3 * n;
+    node_tied(n, DriveGap{{anchor - un[0], -un[1], -un[2]}, {v_ - wn[0], -wn[1], -wn[2]}});
+  });
 }
 
 System::System(const Case& c, std::vector<Contact> contacts)
@@ -82,7 +103,7 @@ System::System(const Case& c, std::vector<Contact> contacts)
   k1_over_m_ = g1_ / (a_ * a_);
   k2_over_m_ = g2_ / (a_ * a_);
   kd_over_m_ = k1_over_m_;
-  const double omega0 = std::sqrt(g1_ + g2_) / a_;
+  const double omega0 = longitudinal_speed() / a_;
   eta_ = c.damping.bulk * omega0;
   eta_c_ = c.damping.contact * omega0;
   v_ = c.drive.velocity;
@@ -153,13 +174,7 @@ void System::lattice_accelerations(double t, std::span<const double> u_in,
   };
   // Cells: U_c = (k2/2) D_c², D_c = ¼ Σ_corners s·u, so F_corner = −k2 D_c ¼ s.
   auto cell = [&](const std::int64_t(&corner)[8]) {
-    double d = 0.0;
-    for (int c = 0; c < 8; ++c) {
-      const Corner& k = kCorners[c];
-      const double* uc = u + 3 * corner[c];
-      d += k.sx * uc[0] + k.sy * uc[1] + k.sz * uc[2];
-    }
-    const double f = -k2 * 0.0625 * d;  // −k2 (¼ Σ s·u) ¼
+    const double f = -k2 * 0.0625 * corner_sum(u, corner);  // −k2 (¼ Σ s·u) ¼
     for (int c = 0; c < 8; ++c) {
       double* ac = acc + 3 * corner[c];
       ac[0] += f * kCorners[c].sx;
@@ -180,12 +195,8 @@ void System::lattice_accelerations(double t, std::span<const double> u_in,
                  [&](std::int64_t k) { layer(parity + 2 * static_cast<int>(k)); });
 
   // Drive springs and dashpots to the plate moving at (v, 0, 0) (§5).
-  const double kd = kd_over_m_;
-  const double anchor = v_ * t;
-  driven([&](std::int64_t n) {
-    acc[3 * n + 0] += kd * (anchor - u[3 * n + 0]) + eta * (v_ - w[3 * n + 0]);
-    acc[3 * n + 1] += -kd * u[3 * n + 1] - eta * w[3 * n + 1];
-    acc[3 * n + 2] += -kd * u[3 * n + 2] - eta * w[3 * n + 2];
+  driven(t, u, w, [&](std::int64_t n, const DriveGap& gap) {
+    for (int k = 0; k < 3; ++k) acc[3 * n + k] += drive_acceleration(gap, k);
   });
 }
 
@@ -202,9 +213,13 @@ void System::rhs_explicit(double t, std::span<const double> y, std::span<double>
   std::copy(y.begin() + 3 * n_, y.begin() + 6 * n_, ydot.begin());  // u' = w
   lattice_accelerations(t, y.subspan(0, 3 * n_), y.subspan(3 * n_, 3 * n_),
                         ydot.subspan(3 * n_, 3 * n_));
-  ydot[quadrature_index(work_in)] = power_in(t, y);
-  ydot[quadrature_index(dissipated)] = dissipation(y);
-  ydot[quadrature_index(friction_impulse)] = friction_force(t, y);
+  const auto rates = quadrature_rates(t, y);
+  std::copy(rates.begin(), rates.end(), ydot.begin() + quadrature_index(work_in));
+}
+
+std::array<double, System::kQuadratures> System::quadrature_rates(double t,
+                                                                  std::span<const double> y) const {
+  return {power_in(t, y), dissipation(y), friction_force(t, y)};
 }
 
 void System::rhs_implicit(double, std::span<const double> y, std::span<double> ydot) const {
@@ -259,8 +274,9 @@ SparseJacobian System::jacobian_pattern(JacobianPart part) const {
                                -k2_over_m_ * 0.0625 * sc[k] * sd[l]);
           }
       });
-    // Drive.
-    driven([&](std::int64_t n) {
+    // Drive: drive_acceleration's ∂/∂u = −k_d, ∂/∂w = −η (the gap is the
+    // plate's less the node's).
+    top_layer([&](std::int64_t n) {
       for (int k = 0; k < 3; ++k) {
         t.emplace_back(w_index(n, k), u_index(n, k), -kd_over_m_);
         t.emplace_back(w_index(n, k), w_index(n, k), -eta_);
@@ -408,18 +424,21 @@ double System::site_damping_rate(std::size_t j, std::array<double, 2> s) const {
   return -std::max(radial, tangential);
 }
 
-double System::friction_force(double t, std::span<const double> y) const {
+double System::drive_stretch(double t, std::span<const double> y) const {
   double sum = 0.0;
-  const double anchor = v_ * t;
-  for (std::int64_t n = node(0, 0, nz_ - 1); n < n_; ++n) sum += anchor - y[u_index(n, 0)];
-  return mass_ * kd_over_m_ * sum;
+  driven(t, y.data(), y.data() + 3 * n_,
+         [&](std::int64_t, const DriveGap& gap) { sum += gap.du[0]; });
+  return sum;
+}
+
+double System::friction_force(double t, std::span<const double> y) const {
+  return mass_ * kd_over_m_ * drive_stretch(t, y);
 }
 
 double System::power_in(double t, std::span<const double> y) const {
   double sum = 0.0;
-  const double anchor = v_ * t;
-  for (std::int64_t n = node(0, 0, nz_ - 1); n < n_; ++n)
-    sum += kd_over_m_ * (anchor - y[u_index(n, 0)]) + eta_ * (v_ - y[w_index(n, 0)]);
+  driven(t, y.data(), y.data() + 3 * n_,
+         [&](std::int64_t, const DriveGap& gap) { sum += drive_acceleration(gap, 0); });
   return mass_ * v_ * sum;
 }
 
@@ -433,10 +452,9 @@ double System::lattice_dissipation(std::span<const double> y) const {
     }
   };
   for (int iz = 0; iz < nz_; ++iz) faces(iz, face);
-  double drive = 0.0;
-  driven([&](std::int64_t n) {
-    const double dx = v_ - w[3 * n], dy = w[3 * n + 1], dz = w[3 * n + 2];
-    drive += dx * dx + dy * dy + dz * dz;
+  double drive = 0.0;  // (the dashpots' gap does not depend on t)
+  driven(0.0, y.data(), w, [&](std::int64_t, const DriveGap& gap) {
+    drive += gap.dw[0] * gap.dw[0] + gap.dw[1] * gap.dw[1] + gap.dw[2] * gap.dw[2];
   });
   return mass_ * eta_ * (face_sum + drive);
 }
@@ -473,22 +491,14 @@ EnergyTerms System::energy(double t, std::span<const double> y) const {
   for (int iz = 0; iz < nz_; ++iz) faces(iz, face);
   for (int iz = 0; iz < nz_; ++iz)
     cells(iz, [&](const std::int64_t(&corner)[8]) {
-      double d = 0.0;
-      for (int c = 0; c < 8; ++c) {
-        const Corner& k = kCorners[c];
-        const double* uc = u + 3 * corner[c];
-        d += k.sx * uc[0] + k.sy * uc[1] + k.sz * uc[2];
-      }
-      d *= 0.25;
+      const double d = 0.25 * corner_sum(u, corner);
       cell_sum += d * d;
     });
   e.elastic = 0.5 * mass_ * (k1_over_m_ * face_sum + k2_over_m_ * cell_sum);
 
-  const double anchor = v_ * t;
   double spring = 0.0;
-  driven([&](std::int64_t n) {
-    const double dx = anchor - u[3 * n], dy = u[3 * n + 1], dz = u[3 * n + 2];
-    spring += dx * dx + dy * dy + dz * dz;
+  driven(t, u, w, [&](std::int64_t, const DriveGap& gap) {
+    spring += gap.du[0] * gap.du[0] + gap.du[1] * gap.du[1] + gap.du[2] * gap.du[2];
   });
   e.drive = 0.5 * mass_ * kd_over_m_ * spring;
   return e;
@@ -516,11 +526,9 @@ double System::total_contact_force(std::span<const double> y) const {
 }
 
 double System::contact_impulse(double t, std::span<const double> y) const {
-  double momentum = 0.0, stretch = 0.0;
+  double momentum = 0.0;
   for (std::int64_t n = 0; n < n_; ++n) momentum += y[w_index(n, 0)];
-  const double anchor = v_ * t;
-  for (std::int64_t n = node(0, 0, nz_ - 1); n < n_; ++n) stretch += anchor - y[u_index(n, 0)];
-  return mass_ * (momentum - eta_ * stretch) - y[quadrature_index(friction_impulse)];
+  return mass_ * (momentum - eta_ * drive_stretch(t, y)) - y[quadrature_index(friction_impulse)];
 }
 
 std::array<double, 2> System::contact_velocity(std::size_t i, std::span<const double> y) const {

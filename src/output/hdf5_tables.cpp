@@ -482,7 +482,7 @@ std::vector<std::pair<std::string, std::vector<double>>> read_hdf5_table(const f
     for (hsize_t m = 0; m < s.width; ++m) {
       std::vector<double> column(rows);
       for (hsize_t r = 0; r < rows; ++r) column[r] = s.values[r * s.width + m];
-      columns.emplace_back(s.name + "_" + std::to_string(std::llround(ids->values[m])),
+      columns.emplace_back(member_column(s.name, static_cast<int>(std::llround(ids->values[m]))),
                            std::move(column));
     }
   }

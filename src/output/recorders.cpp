@@ -38,7 +38,7 @@ Column integer(std::string name) {
 // contacts: where the contacts are (a patch's corner) and their v*, written once.
 class ContactsRecorder final : public Recorder {
  public:
-  static constexpr const char* kTable = "contacts";
+  static constexpr const char* kTable = run_table::kContacts;
   explicit ContactsRecorder(const RecorderSetup& s) {
     if (s.resume_at) return;  // written by the first run
     const auto table = s.tables.create(
@@ -60,17 +60,18 @@ class ContactsRecorder final : public Recorder {
 // checkpoint, the only time the table is read.
 class FrictionRecorder final : public Recorder {
  public:
-  static constexpr const char* kTable = "friction";
+  static constexpr const char* kTable = run_table::kFriction;
+  static constexpr const char* kForce = "F_f";
   explicit FrictionRecorder(const RecorderSetup& s)
       : system_(s.system),
-        table_(open_table(s, {kTable, {time_column(), real("F_f", "N"), real("mu_inst", "1")}})),
+        table_(open_table(s, {kTable, {time_column(), real(kForce, "N"), real("mu_inst", "1")}})),
         normal_force_(s.system.normal_force()),
         average_from_(s.c.run.average_from) {
     if (!s.resume_at) return;
     table_->flush();  // the cut back reaches the file before it is read
-    const TraceTable before = read_run_table(s.dir, kTable);  // t, F_f, mu_inst
+    const TraceTable before = read_run_table(s.dir, kTable);
     t_ = before.t;
-    friction_ = before.values.at(0);
+    friction_ = before.column(kForce);
   }
   void record(double t, std::span<const double> y) override {
     const double ff = system_.friction_force(t, y);
@@ -98,10 +99,13 @@ class FrictionRecorder final : public Recorder {
 };
 
 // traces: the traced contacts' in-plane velocities at the output times (in
-// CSV vx_<id>, vy_<id> per contact; in HDF5 vx and vy as [time × contact]).
+// CSV vx_<id>, vy_<id> per contact (member_column); in HDF5 vx and vy as
+// [time × contact]).
 class TracesRecorder final : public Recorder {
  public:
-  static constexpr const char* kTable = "traces";
+  static constexpr const char* kTable = run_table::kTraces;
+  static constexpr const char* kVx = "vx";
+  static constexpr const char* kVy = "vy";
   explicit TracesRecorder(const RecorderSetup& s)
       : system_(s.system), traced_(s.traced), table_(open_table(s, spec(s.traced))) {
     row_.resize(1 + 2 * traced_.size());
@@ -121,8 +125,8 @@ class TracesRecorder final : public Recorder {
   static TableSpec spec(const std::vector<int>& traced) {
     TableSpec spec{kTable, {time_column()}, "contact", traced};
     for (std::size_t k = 0; k < traced.size(); ++k)
-      for (const char* axis : {"vx", "vy"}) {
-        Column c = real(std::string(axis) + "_" + std::to_string(traced[k]), "m/s");
+      for (const char* axis : {kVx, kVy}) {
+        Column c = real(member_column(axis, traced[k]), "m/s");
         c.dataset = axis;
         c.member = static_cast<int>(k);
         spec.columns.push_back(std::move(c));
@@ -152,7 +156,7 @@ double travel_time(const System& s, const Contact& a, const Contact& b) {
 // x-velocities when both are traced, kept in memory for it).
 class EventsRecorder final : public Recorder {
  public:
-  static constexpr const char* kTable = "events";
+  static constexpr const char* kTable = run_table::kEvents;
   explicit EventsRecorder(const RecorderSetup& s)
       : system_(s.system),
         average_from_(s.c.run.average_from),
@@ -188,9 +192,7 @@ class EventsRecorder final : public Recorder {
     const auto rows = static_cast<std::size_t>(
         std::upper_bound(table.t.begin(), table.t.end(), *s.resume_at) - table.t.begin());
     auto column = [&](int id) {
-      const auto name = "vx_" + std::to_string(id);
-      const auto& values = table.values[static_cast<std::size_t>(
-          std::find(table.columns.begin(), table.columns.end(), name) - table.columns.begin())];
+      const auto& values = table.column(member_column(TracesRecorder::kVx, id));
       return std::vector<double>(values.begin(),
                                  values.begin() + static_cast<std::ptrdiff_t>(rows));
     };
@@ -252,7 +254,7 @@ class EventsRecorder final : public Recorder {
 // start and peak so far cannot be read back from the table).
 class SlipsRecorder final : public Recorder {
  public:
-  static constexpr const char* kTable = "slips";
+  static constexpr const char* kTable = run_table::kSlips;
   explicit SlipsRecorder(const RecorderSetup& s)
       : system_(s.system),
         watched_(s.watched),
@@ -377,7 +379,7 @@ class SlipsRecorder final : public Recorder {
 // and those sub-steps.
 class StepsRecorder final : public Recorder {
  public:
-  static constexpr const char* kTable = "steps";
+  static constexpr const char* kTable = run_table::kSteps;
   explicit StepsRecorder(const RecorderSetup& s)
       : multirate_(s.c.solver.method == Method::multirate), table_(open_table(s, schema())) {}
   bool wants_steps() const override { return true; }
@@ -410,19 +412,19 @@ class StepsRecorder final : public Recorder {
 // the acoustic signal, its second difference over the output times (docs/USAGE.md, "signals.csv").
 class SignalsRecorder final : public Recorder {
  public:
-  static constexpr const char* kTable = "signals";
+  static constexpr const char* kTable = run_table::kSignals;
+  static constexpr const char* kImpulse = "contact_impulse";
   // Exact digits: the impulse is differenced twice.
   explicit SignalsRecorder(const RecorderSetup& s)
       : system_(s.system),
-        table_(open_table(
-            s, {kTable,
-                {time_column(), real("block_velocity", "m/s", kExact),
-                 real("contact_impulse", "N s", kExact), real("acoustic", "N/s", kExact)}})) {
+        table_(open_table(s, {kTable,
+                              {time_column(), real("block_velocity", "m/s", kExact),
+                               real(kImpulse, "N s", kExact), real("acoustic", "N/s", kExact)}})) {
     if (!s.resume_at) return;
     // The last two rows' (t, impulse), to difference the next ones.
     table_->flush();  // the cut back reaches the file before it is read
     const TraceTable written = read_run_table(s.dir, kTable);
-    const auto& impulses = written.values[1];  // block_velocity, contact_impulse, acoustic
+    const auto& impulses = written.column(kImpulse);
     for (std::size_t k = written.t.size() - std::min<std::size_t>(2, written.t.size());
          k < written.t.size(); ++k)
       last_.push_back({written.t[k], impulses[k]});
@@ -452,7 +454,7 @@ class SignalsRecorder final : public Recorder {
 // for comparing runs state by state (bench/work_precision.py).
 class FinalStateRecorder final : public Recorder {
  public:
-  static constexpr const char* kTable = "final_state";
+  static constexpr const char* kTable = run_table::kFinalState;
   explicit FinalStateRecorder(const RecorderSetup& s) : system_(s.system), tables_(s.tables) {}
   void finish(double t_end, std::span<const double> y, Summary&) override {
     TableSpec spec{kTable, {time_column(), integer("ix"), integer("iy"), integer("iz")}};
@@ -538,7 +540,7 @@ std::vector<std::string> recorder_tables() {
 
 std::vector<std::string> recorder_files() {
   std::vector<std::string> files{kHdf5File};
-  for (const auto& table : recorder_tables()) files.push_back(table + ".csv");
+  for (const auto& table : recorder_tables()) files.push_back(csv_file_name(table));
   return files;
 }
 

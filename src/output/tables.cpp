@@ -2,6 +2,7 @@
 // format (the HDF5 store is in hdf5_tables.cpp).
 #include "stickslip/output/tables.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -11,6 +12,33 @@
 #include "stickslip/output/writers.hpp"
 
 namespace stickslip {
+
+std::string csv_file_name(std::string_view table) {
+  return std::string(table) + ".csv";
+}
+
+std::string member_column(std::string_view dataset, int member) {
+  return std::string(dataset) + "_" + std::to_string(member);
+}
+
+std::optional<int> column_member(std::string_view name, std::string_view dataset) {
+  if (name.size() <= dataset.size() + 1 || name.substr(0, dataset.size()) != dataset ||
+      name[dataset.size()] != '_')
+    return std::nullopt;
+  const std::string_view digits = name.substr(dataset.size() + 1);
+  int member = 0;
+  const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), member);
+  if (error != std::errc() || end != digits.data() + digits.size() || member < 0)
+    return std::nullopt;
+  return member;
+}
+
+const std::vector<double>& TraceTable::column(std::string_view name) const {
+  const auto it = std::find(columns.begin(), columns.end(), name);
+  if (it == columns.end())
+    throw OutputError("a table read back has no column \"" + std::string(name) + "\"");
+  return values[static_cast<std::size_t>(it - columns.begin())];
+}
 
 void check_row(std::span<const double> row, std::size_t columns) {
   if (row.size() != columns)
@@ -84,12 +112,12 @@ class CsvStore final : public TableStore {
   void set_attribute(const std::string&, const std::string&) override {}
 
  private:
-  fs::path file(const TableSpec& spec) const { return dir_ / (spec.name + ".csv"); }
+  fs::path file(const TableSpec& spec) const { return dir_ / csv_file_name(spec.name); }
   fs::path dir_;
 };
 
 fs::path csv_file(const fs::path& dir, const std::string& name) {
-  return dir / (name + ".csv");
+  return dir / csv_file_name(name);
 }
 
 bool is_hdf5_run(const fs::path& dir) {
@@ -135,9 +163,9 @@ NamedColumns read_run_columns(const fs::path& dir, const std::string& name) {
 }
 
 std::vector<Event> read_run_events(const fs::path& dir) {
-  if (!is_hdf5_run(dir)) return read_events_csv(csv_file(dir, "events"));
+  if (!is_hdf5_run(dir)) return read_events_csv(csv_file(dir, run_table::kEvents));
   const fs::path file = dir / kHdf5File;
-  const auto columns = read_hdf5_table(file, "events");
+  const auto columns = read_hdf5_table(file, run_table::kEvents);
   auto column = [&](const char* name) -> const std::vector<double>* {
     for (const auto& [n, values] : columns)
       if (n == name) return &values;

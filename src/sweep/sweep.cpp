@@ -65,6 +65,40 @@ std::string number(const std::optional<double>& x) {
   return x ? number(*x) : std::string();
 }
 
+// sweep.csv's columns after the point's name and its axes' values, in order,
+// the synchronization's only when some point has one. regime: what F_f does
+// in the window (core/cycles.hpp); μ is a friction coefficient only in
+// "stick-slip" and "steady sliding".
+constexpr const char* kResultColumns[] = {
+    "status",   "mu",  "mu_whole_cycles", "regime", "F_f_spread",      "theta",
+    "contacts", "F_N", "energy_residual", "slips",  "mean_recurrence", "slipping_fraction"};
+constexpr const char* kSyncColumns[] = {"slip_rate_ratio",     "lag_mean",   "lag_min",  "lag_max",
+                                        "coincident_fraction", "xcorr_peak", "xcorr_lag"};
+constexpr const char* kRunColumns[] = {"steps",        "rhs_explicit", "rhs_implicit",
+                                       "wall_seconds", "git_commit",   "error"};
+
+// One row of a CSV table, a field per column of its header, filled by column
+// name; fields left unset are empty.
+class CsvRow {
+ public:
+  explicit CsvRow(const std::vector<std::string>& columns)
+      : columns_(columns), fields_(columns.size()) {}
+  std::string& operator[](std::size_t i) { return fields_.at(i); }
+  std::string& operator[](std::string_view name) {
+    const auto it = std::find(columns_.begin(), columns_.end(), name);
+    if (it == columns_.end()) throw std::logic_error("no column " + std::string(name));
+    return fields_[static_cast<std::size_t>(it - columns_.begin())];
+  }
+  friend std::ostream& operator<<(std::ostream& out, const CsvRow& row) {
+    for (std::size_t i = 0; i < row.fields_.size(); ++i) out << (i ? "," : "") << row.fields_[i];
+    return out << '\n';
+  }
+
+ private:
+  const std::vector<std::string>& columns_;
+  std::vector<std::string> fields_;
+};
+
 // Starts `stickslip run` for one point, its output in <dir>/run.log.
 pid_t spawn_point(const Sweep& sweep, const SweepPoint& p, const fs::path& dir, const fs::path& exe,
                   bool restart, bool any_version, int threads) {
@@ -141,8 +175,9 @@ PointState point_state(const SweepPoint& point, const fs::path& dir, std::string
   }
   if (!summary) {
     if (fs::exists(dir / "failed")) return PointState::failed;
-    return fs::exists(dir / "friction.csv") || fs::exists(dir / kHdf5File) ? PointState::incomplete
-                                                                           : PointState::absent;
+    return fs::exists(dir / csv_file_name(run_table::kFriction)) || fs::exists(dir / kHdf5File)
+               ? PointState::incomplete
+               : PointState::absent;
   }
   if (!any_version) {
     // Every attempt's version: a restart with --any-version may have mixed them.
@@ -176,31 +211,27 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
     any_sync = any_sync || (summaries.back() && summaries.back()->synchronization);
   }
 
+  std::vector<std::string> columns{"point"};
+  for (const auto& a : sweep.axes) columns.push_back(a.key);
+  columns.insert(columns.end(), std::begin(kResultColumns), std::end(kResultColumns));
+  if (any_sync) columns.insert(columns.end(), std::begin(kSyncColumns), std::end(kSyncColumns));
+  columns.insert(columns.end(), std::begin(kRunColumns), std::end(kRunColumns));
   std::ostringstream table;
-  table << "point";
-  for (const auto& a : sweep.axes) table << ',' << a.key;
-  // regime: what F_f does in the window (core/cycles.hpp); μ is a friction
-  // coefficient only in "stick-slip" and "steady sliding".
-  table << ",status,mu,mu_whole_cycles,regime,F_f_spread,theta,contacts,F_N,energy_residual,slips,"
-           "mean_"
-           "recurrence,"
-           "slipping_fraction";
-  const char* const sync_columns[] = {"slip_rate_ratio",     "lag_mean",   "lag_min",  "lag_max",
-                                      "coincident_fraction", "xcorr_peak", "xcorr_lag"};
-  if (any_sync)
-    for (const char* c : sync_columns) table << ',' << c;
-  table << ",steps,rhs_explicit,rhs_implicit,wall_seconds,git_commit,error\n";
+  for (std::size_t c = 0; c < columns.size(); ++c) table << (c ? "," : "") << columns[c];
+  table << '\n';
 
   std::size_t finished = 0;
   for (std::size_t i = 0; i < points.size(); ++i) {
     const auto& p = points[i];
-    table << csv_field(p.name);
-    for (const auto& label : p.labels) table << ',' << csv_field(label);
+    CsvRow row(columns);
+    row[0] = csv_field(p.name);
+    for (std::size_t a = 0; a < p.labels.size(); ++a) row[1 + a] = csv_field(p.labels[a]);
     const fs::path dir = out_dir / p.name;
     if (!summaries[i]) {
       const PointState state = states[i];
-      table << ',' << to_string(state) << std::string(any_sync ? 24 : 17, ',')
-            << csv_field(state == PointState::failed ? last_line(dir / "run.log") : "") << '\n';
+      row["status"] = to_string(state);
+      if (state == PointState::failed) row["error"] = csv_field(last_line(dir / "run.log"));
+      table << row;
       continue;
     }
     ++finished;
@@ -216,27 +247,36 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
         if (std::isfinite(c.mean_recurrence)) recurrence += c.mean_recurrence, ++n_rec;
         if (std::isfinite(c.slipping_fraction)) fraction += c.slipping_fraction, ++n_frac;
       }
-    table << ",finished," << number(s.mu) << ','
-          << (s.mu_whole_cycles ? number(s.mu_whole_cycles->mu) : "") << ','
-          << (s.regime ? to_string(s.regime->kind) : "") << ',' << number(s.F_f_spread) << ','
-          << number(s.theta) << ',' << s.contacts << ',' << number(s.F_N) << ','
-          << number(s.energy_residual) << ',' << (s.events ? std::to_string(slips) : "") << ','
-          << (n_rec ? number(recurrence / n_rec) : "") << ','
-          << (n_frac ? number(fraction / n_frac) : "");
-    if (any_sync) {
-      if (const auto& y = s.synchronization)
-        for (const auto& x : {number(y->slip_rate_ratio), number(y->lag_mean), number(y->lag_min),
-                              number(y->lag_max), number(y->coincident_fraction),
-                              number(y->xcorr_peak), number(y->xcorr_lag)})
-          table << ',' << x;
-      else
-        table << std::string(std::size(sync_columns), ',');
+    row["status"] = "finished";
+    row["mu"] = number(s.mu);
+    if (s.mu_whole_cycles) row["mu_whole_cycles"] = number(s.mu_whole_cycles->mu);
+    if (s.regime) row["regime"] = to_string(s.regime->kind);
+    row["F_f_spread"] = number(s.F_f_spread);
+    row["theta"] = number(s.theta);
+    row["contacts"] = std::to_string(s.contacts);
+    row["F_N"] = number(s.F_N);
+    row["energy_residual"] = number(s.energy_residual);
+    if (s.events) row["slips"] = std::to_string(slips);
+    if (n_rec) row["mean_recurrence"] = number(recurrence / n_rec);
+    if (n_frac) row["slipping_fraction"] = number(fraction / n_frac);
+    if (const auto& y = s.synchronization) {
+      row["slip_rate_ratio"] = number(y->slip_rate_ratio);
+      row["lag_mean"] = number(y->lag_mean);
+      row["lag_min"] = number(y->lag_min);
+      row["lag_max"] = number(y->lag_max);
+      row["coincident_fraction"] = number(y->coincident_fraction);
+      row["xcorr_peak"] = number(y->xcorr_peak);
+      row["xcorr_lag"] = number(y->xcorr_lag);
     }
     const SolverStats& st = s.solver_stats;
-    table << ',' << st.steps << ',' << st.rhs_explicit << ',' << st.rhs_implicit << ','
-          << number(s.wall_seconds) << ',' << s.git_commit << ",\n";
+    row["steps"] = std::to_string(st.steps);
+    row["rhs_explicit"] = std::to_string(st.rhs_explicit);
+    row["rhs_implicit"] = std::to_string(st.rhs_implicit);
+    row["wall_seconds"] = number(s.wall_seconds);
+    row["git_commit"] = s.git_commit;
+    table << row;
   }
-  write_atomically(out_dir / "sweep.csv", [&](std::ostream& out) { out << table.str(); });
+  write_atomically(out_dir / kSweepFile, [&](std::ostream& out) { out << table.str(); });
 
   // μ over `average_over` for every combination of the other axes.
   std::size_t avg_axis = sweep.axes.size();
@@ -295,7 +335,7 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
             << (g.mu_cycles.size() == g.mu.size() ? statistics(g.mu_cycles) : ",,") << ','
             << g.untrusted << '\n';
   }
-  write_atomically(out_dir / "sweep_summary.csv", [&](std::ostream& out) { out << summary.str(); });
+  write_atomically(out_dir / kSweepSummaryFile, [&](std::ostream& out) { out << summary.str(); });
   return finished;
 }
 

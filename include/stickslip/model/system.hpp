@@ -13,6 +13,7 @@
 // accurate as the state itself: they feed the energy audit (§8) and μ (§7).
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <span>
 #include <stdexcept>
@@ -147,6 +148,10 @@ class System {
   void lattice_accelerations(double t, std::span<const double> u, std::span<const double> w,
                              std::span<double> acc) const;
 
+  // The quadratures' rates at (t, y), in Quadrature's order: P_in, D and F_f
+  // (§7, §8); they depend on u and w only. f's last three rows.
+  std::array<double, kQuadratures> quadrature_rates(double t, std::span<const double> y) const;
+
   // ∂f/∂y of `part`, with every diagonal entry present (integrators form I − γJ
   // in place). Quadrature rows are left zero: nothing depends on them.
   SparseJacobian jacobian_pattern(JacobianPart part) const;
@@ -224,6 +229,10 @@ class System {
   double mass() const { return mass_; }
   double g1() const { return g1_; }
   double g2() const { return g2_; }
+  // k1 = m G1/a² of §2: one elastic spring's stiffness [N/m].
+  double k1() const { return mass_ * g1_ / (a_ * a_); }
+  // c_l = √(G1 + G2): the longitudinal sound speed [m/s].
+  double longitudinal_speed() const { return std::sqrt(g1_ + g2_); }
   double spacing() const { return a_; }
   double drive_velocity() const { return v_; }
   // The displacement one elastic spring k1 takes to balance a site's full
@@ -243,20 +252,35 @@ class System {
   // the forces, the Jacobian, the dissipation and the energy all walk the
   // lattice through these, in this order (system.cpp). A new lattice term is
   // its coefficient (a member here, set in the constructor) and its lambda
-  // in each of those four; a term between the top layer and the plate also
-  // enters friction_force, power_in and contact_impulse, which read the
-  // drive's springs and dashpots directly.
+  // in each of those four; a term between the top layer and the plate goes
+  // in drive_acceleration too, which power_in reads, and friction_force and
+  // contact_impulse read drive_stretch.
   //  - faces(iz, f): f(i, j) for every face of layer iz, node by node (iy
   //    slowest), its +x, +y and (below the top) +z neighbour j of node i;
   //  - cells(iz, f): f(corner) for every cell between layers iz and iz + 1,
   //    corner[8] its nodes in kCorners' order (system.cpp); none in the top layer;
-  //  - driven(f): f(n) for every node of the top layer, tied to the plate.
+  //  - top_layer(f): f(n) for every node of the top layer, tied to the plate;
+  //  - driven(t, u, w, f): f(n, gap) for each of them, with gap the plate's
+  //    displacement and velocity at t less the node's (u, w: 3N values each,
+  //    as lattice_accelerations takes them).
+  struct DriveGap {
+    double du[3];  // (v t − u^x, −u^y, −u^z) [m]
+    double dw[3];  // (v − w^x, −w^y, −w^z) [m/s]
+  };
   template <class Face>
   void faces(int iz, Face&& face) const;
   template <class Cell>
   void cells(int iz, Cell&& cell) const;
+  template <class Node>
+  void top_layer(Node&& node_tied) const;
   template <class Driven>
-  void driven(Driven&& node_tied) const;
+  void driven(double t, const double* u, const double* w, Driven&& node_tied) const;
+  // The drive's spring and dashpot on a top node, per unit mass, component k (§5).
+  double drive_acceleration(const DriveGap& gap, int k) const {
+    return kd_over_m_ * gap.du[k] + eta_ * gap.dw[k];
+  }
+  // Σ_top (v t − u^x): the drive springs' total stretch along x [m].
+  double drive_stretch(double t, std::span<const double> y) const;
 
   int nx_, ny_, nz_;
   std::int64_t n_;

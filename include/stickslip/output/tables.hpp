@@ -11,6 +11,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -18,6 +19,31 @@
 #include "stickslip/core/events.hpp"
 
 namespace stickslip {
+
+// The tables of a run (each written by its recorder, output/recorders.cpp),
+// by the name of their CSV file and HDF5 group: a name that code outside its
+// recorder reads (a sweep, the events reader) is spelled here once.
+namespace run_table {
+inline constexpr const char* kContacts = "contacts";
+inline constexpr const char* kFriction = "friction";
+inline constexpr const char* kTraces = "traces";
+inline constexpr const char* kEvents = "events";
+inline constexpr const char* kSlips = "slips";
+inline constexpr const char* kSteps = "steps";
+inline constexpr const char* kSignals = "signals";
+inline constexpr const char* kFinalState = "final_state";
+}  // namespace run_table
+
+// Table `table`'s CSV file in a run's directory: <table>.csv.
+std::string csv_file_name(std::string_view table);
+
+// Member `member` of a 2-D dataset (Column::dataset) as a column of its own,
+// as a CSV header and read_run_table name it: <dataset>_<member> (traces: vx of
+// contact 3 is vx_3). The Python module names them through this too.
+std::string member_column(std::string_view dataset, int member);
+// The member of `dataset` that column `name` is, if it is one of them
+// (member_column's inverse: vx_3 → 3).
+std::optional<int> column_member(std::string_view name, std::string_view dataset);
 
 // A column's values are doubles in the row; integer and label columns hold
 // whole numbers (a label column's number is the index of its text in `labels`).
@@ -83,6 +109,8 @@ struct TraceTable {
   std::vector<std::string> columns;         // without "t"
   std::vector<double> t;                    // strictly increasing
   std::vector<std::vector<double>> values;  // values[column][row]
+  // Column `name`'s values; OutputError if the table has none of that name.
+  const std::vector<double>& column(std::string_view name) const;
 };
 
 // Whether the run in `dir` wrote table `name`, in either format.

@@ -72,6 +72,10 @@ const char* to_string(PointState);
 PointState point_state(const SweepPoint& point, const std::filesystem::path& dir,
                        std::string* why = nullptr, bool any_version = false);
 
+// The sweep's tables in its output directory (write_sweep_tables).
+inline constexpr const char* kSweepFile = "sweep.csv";
+inline constexpr const char* kSweepSummaryFile = "sweep_summary.csv";
+
 // sweep.csv (one row per point: swept values, status, μ, θ, slip statistics,
 // synchronization when two contacts are watched, solver statistics, wall time)
 // and sweep_summary.csv (mean, standard deviation and count of μ over
