@@ -215,6 +215,33 @@ TEST_CASE("with 2x2 patches, every site's block matches finite differences", "[j
         1.0);
 }
 
+TEST_CASE(
+    "site_rows holds the full Jacobian's rows of the sites' in-plane accelerations and no other",
+    "[jacobian]") {
+  Fixture f;
+  const System& s = *f.system;
+  const auto full = s.jacobian_pattern(JacobianPart::full);
+  const auto rows = s.jacobian_pattern(JacobianPart::site_rows);
+  REQUIRE(rows.size == full.size);
+  std::vector<char> site_row(static_cast<std::size_t>(s.size()), 0);
+  for (const auto& site : s.sites())
+    for (int k = 0; k < 2; ++k) site_row[static_cast<std::size_t>(s.w_index(site.node, k))] = 1;
+  for (std::int64_t r = 0; r < full.size; ++r) {
+    const auto n = rows.row_start[r + 1] - rows.row_start[r];
+    if (!site_row[static_cast<std::size_t>(r)]) {
+      REQUIRE(n == 0);
+      continue;
+    }
+    REQUIRE(n == full.row_start[r + 1] - full.row_start[r]);
+    for (std::int64_t k = 0; k < n; ++k) {
+      REQUIRE(rows.column[rows.row_start[r] + k] == full.column[full.row_start[r] + k]);
+      REQUIRE(rows.constant_value[rows.row_start[r] + k] ==
+              full.constant_value[full.row_start[r] + k]);
+    }
+  }
+  CHECK(rows.nonzeros() < full.nonzeros() / 20);
+}
+
 TEST_CASE("every diagonal entry is in the pattern", "[jacobian]") {
   Fixture f;
   for (auto part : {JacobianPart::contacts, JacobianPart::full}) {

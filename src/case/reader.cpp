@@ -556,12 +556,12 @@ std::string bytes_text(double bytes) {
 }
 
 // Peak memory of a run, from its lattice: measured peak resident sizes
-// (30×30×10 against 60×60×10, coverage 0.1) grew by 1.8 KiB a node with dirk
-// and 27 KiB with multirate (its contacts' Jacobian rows and sub-step state);
-// the other methods need less than dirk.
+// (30×30×10 against 60×60×10, coverage 0.1) grew by 1.7 KiB a node with dirk
+// and 2.2 KiB with multirate (its sub-step state); the other methods need
+// less than dirk.
 double memory_estimate(const Case& c) {
   const double nodes = double(c.lattice.nx) * c.lattice.ny * c.lattice.nz;
-  const double per_node = c.solver.method == Method::multirate ? 28.0 * 1024 : 2.0 * 1024;
+  const double per_node = c.solver.method == Method::multirate ? 2.5 * 1024 : 2.0 * 1024;
   return nodes * per_node;
 }
 

@@ -45,7 +45,7 @@ std::array<double, 2> NodeCoupling::forcing(const double* y) const {
 }
 
 std::vector<NodeCoupling> node_couplings(const System& system) {
-  const SparseJacobian jac = system.jacobian_pattern(JacobianPart::full);
+  const SparseJacobian jac = system.jacobian_pattern(JacobianPart::site_rows);
   if (system.nz() < 2)
     throw std::invalid_argument("a one-layer lattice: its contact nodes are driven");
   std::vector<NodeCoupling> out;

@@ -241,23 +241,34 @@ SparseJacobian System::jacobian_pattern(JacobianPart part) const {
   using Triplet = Eigen::Triplet<double, std::int64_t>;
   std::vector<Triplet> t;
   const std::int64_t size = this->size();
-  for (std::int64_t r = 0; r < size; ++r) t.emplace_back(r, r, 0.0);
+  // site_rows keeps the sites' w rows only: the triplets of the whole
+  // matrix are ~27 KiB a node, far more than a run's own state.
+  std::vector<char> kept_row;
+  if (part == JacobianPart::site_rows) {
+    kept_row.assign(static_cast<std::size_t>(size), 0);
+    for (const auto& site : sites_)
+      for (int r = 0; r < 2; ++r) kept_row[static_cast<std::size_t>(w_index(site.node, r))] = 1;
+  }
+  auto add = [&](std::int64_t r, std::int64_t c, double v) {
+    if (kept_row.empty() || kept_row[static_cast<std::size_t>(r)]) t.emplace_back(r, c, v);
+  };
+  for (std::int64_t r = 0; r < size; ++r) add(r, r, 0.0);
   for (const auto& site : sites_) {
     const std::int64_t wx = w_index(site.node, 0);
     for (int r = 0; r < 2; ++r)
-      for (int c = 0; c < 2; ++c) t.emplace_back(wx + r, wx + c, 0.0);
+      for (int c = 0; c < 2; ++c) add(wx + r, wx + c, 0.0);
   }
-  if (part == JacobianPart::full) {
+  if (part != JacobianPart::contacts) {
     // u' = w.
-    for (std::int64_t r = 0; r < 3 * n_; ++r) t.emplace_back(r, 3 * n_ + r, 1.0);
+    for (std::int64_t r = 0; r < 3 * n_; ++r) add(r, 3 * n_ + r, 1.0);
     // Faces: a_i += k1 (u_j − u_i) + η (w_j − w_i), and the opposite on j.
     auto face = [&](std::int64_t i, std::int64_t j) {
       for (int k = 0; k < 3; ++k)
         for (auto [coef, offset] : {std::pair{k1_over_m_, std::int64_t{0}}, {eta_, 3 * n_}}) {
-          t.emplace_back(w_index(i, k), offset + 3 * j + k, coef);
-          t.emplace_back(w_index(i, k), offset + 3 * i + k, -coef);
-          t.emplace_back(w_index(j, k), offset + 3 * i + k, coef);
-          t.emplace_back(w_index(j, k), offset + 3 * j + k, -coef);
+          add(w_index(i, k), offset + 3 * j + k, coef);
+          add(w_index(i, k), offset + 3 * i + k, -coef);
+          add(w_index(j, k), offset + 3 * i + k, coef);
+          add(w_index(j, k), offset + 3 * j + k, -coef);
         }
     };
     for (int iz = 0; iz < nz_; ++iz) faces(iz, face);
@@ -270,16 +281,16 @@ SparseJacobian System::jacobian_pattern(JacobianPart part) const {
             const double sc[3] = {c.sx, c.sy, c.sz}, sd[3] = {d.sx, d.sy, d.sz};
             for (int k = 0; k < 3; ++k)
               for (int l = 0; l < 3; ++l)
-                t.emplace_back(w_index(corner[ci], k), u_index(corner[di], l),
-                               -k2_over_m_ * 0.0625 * sc[k] * sd[l]);
+                add(w_index(corner[ci], k), u_index(corner[di], l),
+                    -k2_over_m_ * 0.0625 * sc[k] * sd[l]);
           }
       });
     // Drive: drive_acceleration's ∂/∂u = −k_d, ∂/∂w = −η (the gap is the
     // plate's less the node's).
     top_layer([&](std::int64_t n) {
       for (int k = 0; k < 3; ++k) {
-        t.emplace_back(w_index(n, k), u_index(n, k), -kd_over_m_);
-        t.emplace_back(w_index(n, k), w_index(n, k), -eta_);
+        add(w_index(n, k), u_index(n, k), -kd_over_m_);
+        add(w_index(n, k), w_index(n, k), -eta_);
       }
     });
   }

@@ -41,8 +41,11 @@ struct SparseJacobian {
 };
 
 // Which part of f a Jacobian belongs to: the contact forces alone (the stiff,
-// block-diagonal part treated implicitly by IMEX methods) or all of f.
-enum class JacobianPart { contacts, full };
+// block-diagonal part treated implicitly by IMEX methods), all of f, or all
+// of f's rows for the friction sites' in-plane accelerations and no others
+// (how each contact node is tied to the lattice, which the multirate stepper
+// reads: O(N_c) entries, where the whole matrix holds ~200 a node).
+enum class JacobianPart { contacts, full, site_rows };
 
 // One contact's implicit stage equation s − γ a_c(s) = b solved exactly
 // (a_c: its in-plane acceleration, MODEL.md §6), with ∂s/∂b when asked for.
@@ -152,8 +155,9 @@ class System {
   // (§7, §8); they depend on u and w only. f's last three rows.
   std::array<double, kQuadratures> quadrature_rates(double t, std::span<const double> y) const;
 
-  // ∂f/∂y of `part`, with every diagonal entry present (integrators form I − γJ
-  // in place). Quadrature rows are left zero: nothing depends on them.
+  // ∂f/∂y of `part`, with every diagonal entry of its rows present
+  // (integrators form I − γJ in place). Quadrature rows are left zero:
+  // nothing depends on them.
   SparseJacobian jacobian_pattern(JacobianPart part) const;
   // Refills the values of a matrix built by jacobian_pattern at y: only the
   // contact blocks depend on the state.
