@@ -490,6 +490,24 @@ TEST_CASE(
   CHECK_FALSE(erk.at("solver").contains("chosen_by"));
 }
 
+TEST_CASE("method = auto keeps dirk where a hundred contacts and more slip together",
+          "[methods][auto]") {
+  // Fig. 8's high-load block slips on 15x15 (112 contacts, all below the
+  // drive speed): multirate is faster inside each block slip but slower over
+  // the whole run (docs/PERFORMANCE.md, "Multirate"), so auto stays with dirk.
+  Case c;
+  c.lattice.nx = c.lattice.ny = 15;
+  c.lattice.nz = 2;
+  c.interface.coverage = 0.498;
+  c.interface.seed = 1;
+  c.drive.velocity = 1e-3;
+  const System s(c, place_contacts(c.lattice, c.interface));
+  REQUIRE(s.contacts().size() >= 100);
+  const MethodChoice choice = choose_method(s, c.solver);
+  CHECK(choice.method == Method::dirk);
+  CHECK(choice.reason.find(std::to_string(s.contacts().size()) + " contacts") != std::string::npos);
+}
+
 TEST_CASE("every method asks whether to stop every 500 steps", "[methods][poll]") {
   Case c = two_contacts();
   const System s(c, place_contacts(c.lattice, c.interface));

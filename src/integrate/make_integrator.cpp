@@ -27,6 +27,11 @@ MethodChoice choose_method(const System& system, const SolverParams& solver) {
             "method = \"auto\": bdf, since no contact has v* below the drive "
             "speed (steady sliding or creep, where its steps grow; "
             "docs/PERFORMANCE.md)"};
+  // Not multirate, even where hundreds of contacts slip together: it is
+  // faster inside a block slip (2.3x on 30x30x10) but slower over whole runs
+  // (1.37x on theta05's 15x15x10, 2x at coverage 0.04), since between block
+  // slips its contacts slipping alone cost coupling passes dirk does not pay
+  // (docs/PERFORMANCE.md, "Multirate").
   return {Method::dirk, "method = \"auto\": dirk, since " + std::to_string(weak) + " of " +
                             std::to_string(system.contacts().size()) +
                             " contacts have v* below the drive speed and stick-slip, where dirk "
