@@ -1,8 +1,8 @@
 // Case-file reader. Every key is one entry of the schema below (section, key,
-// how to read it, unit and meaning); the reader walks the parsed TOML against
-// that table, and `stickslip keys` and docs/keys.md print it, so adding a
-// parameter is adding one entry (and its field and to_json line, which
-// tests/test_case_keys.cpp checks). Checks that involve two keys
+// how to read it and write it back, unit and meaning); the reader walks the
+// parsed TOML against that table, to_json writes a Case through it, and
+// `stickslip keys` and docs/keys.md print it, so adding a parameter is adding
+// one entry (and its field, which tests/test_case_keys.cpp checks). Checks that involve two keys
 // run afterwards on the filled Case. Errors are blamed on the node at fault:
 // toml++ records where each node came from, and nodes parsed from --set carry
 // the source name "--set", so an override is reported as such and not as a line
@@ -128,11 +128,17 @@ constexpr Range kNonNegative{0, kInf, false, true};
 // Converts one value, checks what can be checked on it alone, and stores it.
 using Apply = std::function<void(Reader&, const toml::node&, const std::string& key, Case&)>;
 
-// How a key is read, and what it allows in words (for `stickslip keys`): the
-// builders below write both from the same range or options.
+// How a key's value is written back (to_json): null for a key left unset,
+// which to_json leaves out and which reads back as unset.
+using Write = std::function<nlohmann::json(const Case&)>;
+
+// How a key is read, what it allows in words (for `stickslip keys`) and how
+// it is written back (to_json): the builders below make all three from the
+// same member, range or options.
 struct Rule {
   Apply apply;
   std::string allowed;
+  Write write;
 };
 
 // One key: how it is read, its unit and what it means. The default is the
@@ -152,7 +158,18 @@ Rule real(S Case::*s, double S::*m, Range range) {
             if (!range.contains(x)) r.fail(n, key, "must be " + range.text() + ", got " + fmt(x));
             (c.*s).*m = x;
           },
-          range.text()};
+          range.text(), [=](const Case& c) { return nlohmann::json((c.*s).*m); }};
+}
+
+// A real that may be left unset (0: the solver derives it), written back only
+// when set.
+template <class S>
+Rule optional_real(S Case::*s, double S::*m, Range range) {
+  Rule rule = real(s, m, range);
+  rule.write = [=](const Case& c) {
+    return (c.*s).*m > 0 ? nlohmann::json((c.*s).*m) : nlohmann::json();
+  };
+  return rule;
 }
 
 template <class S, class T>
@@ -167,7 +184,8 @@ Rule integer(S Case::*s, T S::*m, std::int64_t lo) {
                          std::to_string(x));
             (c.*s).*m = static_cast<T>(x);
           },
-          "integer >= " + std::to_string(lo)};
+          "integer >= " + std::to_string(lo),
+          [=](const Case& c) { return nlohmann::json((c.*s).*m); }};
 }
 
 // A string naming one of `options`, spelled as to_string spells them.
@@ -180,7 +198,7 @@ Rule choice(S Case::*s, E S::*m, Es... options) {
             if (((word == to_string(options) && ((c.*s).*m = options, true)) || ...)) return;
             r.fail(n, key, "must be one of " + names + ", got \"" + printable(word) + "\"");
           },
-          names};
+          names, [=](const Case& c) { return nlohmann::json(to_string((c.*s).*m)); }};
 }
 
 // "auto", or the name of a row of a table of case/methods.hpp.
@@ -267,6 +285,13 @@ void read_contacts(Reader& r, const toml::node& n, const std::string& key, Case&
   }
 }
 
+nlohmann::json write_contacts(const Case& c) {
+  nlohmann::json contacts = nlohmann::json::array();
+  for (const auto& k : c.interface.contacts)
+    contacts.push_back({{"site", nlohmann::json::array({k.ix, k.iy})}, {"v_star", k.v_star}});
+  return contacts;
+}
+
 // "all", "none" or a list of distinct contact ids, for traces and for events.
 Rule contact_selection(ContactSelection OutputParams::*which, std::vector<int> OutputParams::*ids,
                        std::vector<const toml::node*> Reader::*nodes) {
@@ -297,7 +322,13 @@ Rule contact_selection(ContactSelection OutputParams::*which, std::vector<int> O
               (r.*nodes).push_back(array->get(i));
             }
           },
-          "\"all\", \"none\" or [contact ids]"};
+          "\"all\", \"none\" or [contact ids]",
+          [=](const Case& c) {
+            const auto& out = c.output;
+            return out.*which == ContactSelection::all    ? nlohmann::json("all")
+                   : out.*which == ContactSelection::none ? nlohmann::json("none")
+                                                          : nlohmann::json(out.*ids);
+          }};
 }
 
 Rule boolean(bool OutputParams::*m) {
@@ -306,7 +337,7 @@ Rule boolean(bool OutputParams::*m) {
             if (!b) r.fail(n, key, "expected true or false, got " + type_name(n));
             c.output.*m = b->get();
           },
-          "true, false"};
+          "true, false", [=](const Case& c) { return nlohmann::json(c.output.*m); }};
 }
 
 // "auto" and the names of a table's rows (case/methods.hpp), as read_row takes them.
@@ -374,7 +405,8 @@ const std::vector<Entry>& schema() {
        "single-site contact"},
       {"interface",
        "contacts",
-       {read_contacts, "[{ site = [ix, iy], v_star = ... }, ...]: at least one, sites distinct"},
+       {read_contacts, "[{ site = [ix, iy], v_star = ... }, ...]: at least one, sites distinct",
+        write_contacts},
        "",
        "explicit contacts, numbered in the list's order (v_star in m/s); replaces coverage and "
        "seed"},
@@ -391,12 +423,14 @@ const std::vector<Entry>& schema() {
        "simulated time between checkpoints; 0: none"},
       {"solver",
        "method",
-       {read_method, row_names(methods())},
+       {read_method, row_names(methods()),
+        [](const Case& c) { return nlohmann::json(to_string(c.solver.method)); }},
        "",
        "the integrator; \"auto\" chooses one for the case (README, Methods)"},
       {"solver",
        "linear_solver",
-       {read_linear_solver, row_names(linear_solvers())},
+       {read_linear_solver, row_names(linear_solvers()),
+        [](const Case& c) { return nlohmann::json(to_string(c.solver.linear_solver)); }},
        "",
        "how dirk and bdf solve their stage equations (those methods only); \"auto\" is \"fft\""},
       {"solver", "order", integer(&Case::solver, &SolverParams::order, 0), "",
@@ -411,10 +445,11 @@ const std::vector<Entry>& schema() {
        "relative tolerance; above 1e-5 slip counts and times are not to be trusted (summary.json "
        "warns)"},
       {"solver", "atol_displacement",
-       real(&Case::solver, &SolverParams::atol_displacement, kPositive), "m",
+       optional_real(&Case::solver, &SolverParams::atol_displacement, kPositive), "m",
        "absolute tolerance of displacements; unset: rtol times the case's scale"},
-      {"solver", "atol_velocity", real(&Case::solver, &SolverParams::atol_velocity, kPositive),
-       "m/s", "absolute tolerance of velocities; unset: rtol times the case's scale"},
+      {"solver", "atol_velocity",
+       optional_real(&Case::solver, &SolverParams::atol_velocity, kPositive), "m/s",
+       "absolute tolerance of velocities; unset: rtol times the case's scale"},
       {"solver", "threads", integer(&Case::solver, &SolverParams::threads, 0), "",
        "OpenMP threads of the run; 0: every core (or OMP_NUM_THREADS) from 1000 lattice nodes "
        "up, one below; results do not depend on it"},
@@ -425,7 +460,8 @@ const std::vector<Entry>& schema() {
        "× rtol, or 1e-4 for a fixed step"},
       {"output",
        "dir",
-       {read_dir, "a path, relative to the case file"},
+       {read_dir, "a path, relative to the case file",
+        [](const Case& c) { return nlohmann::json(c.output.dir.string()); }},
        "",
        "output directory; unset: out/ and the case file's stem, in the working directory"},
       {"output", "interval", real(&Case::output, &OutputParams::interval, kPositive), "s",
@@ -759,6 +795,18 @@ std::string default_text(const Entry& e, const nlohmann::json& defaults) {
 }
 
 }  // namespace
+
+// Each key's value as its schema row writes it, in the case file's sections
+// and key names, so a summary.json reads back as a case (apart from
+// `source`); a key unset (null) is left out.
+nlohmann::json to_json(const Case& c) {
+  nlohmann::json out = {{"source", c.source.string()}};
+  for (const Entry& e : schema()) {
+    nlohmann::json value = e.rule.write(c);
+    if (!value.is_null()) out[std::string(e.section)][std::string(e.key)] = std::move(value);
+  }
+  return out;
+}
 
 const std::vector<CaseKey>& case_keys() {
   static const std::vector<CaseKey> keys = [] {

@@ -146,7 +146,8 @@ struct Case {
   OutputParams output;
 };
 
-// The case as resolved (every parameter, defaults filled in), for summary.json.
+// The case as resolved (every parameter, defaults filled in), for summary.json:
+// each key as its schema row writes it (case/reader.cpp).
 nlohmann::json to_json(const Case& c);
 // The same as the text of a case file, which reads back as this case (values
 // that mean "unset", such as an empty output.dir, are left out; output.dir is
