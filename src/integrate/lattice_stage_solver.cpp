@@ -38,16 +38,17 @@ LatticeStageSolver::LatticeStageSolver(const System& system, double max_gamma_la
       lattice_(system),
       nodes_(system.num_nodes()),
       sites_(system.sites().size()),
+      nx_(system.nx()),
+      ny_(system.ny()),
       zero_(static_cast<std::size_t>(3 * nodes_), 0.0),
       acc_(zero_.size()),
       correction_(zero_.size()) {
   const auto& sites = system.sites();
   for (std::size_t i = 0; i < sites_; ++i) site_w_.push_back(system.w_index(sites[i].node, 0));
-  site_offset_.reserve(sites_ * sites_);
-  for (std::size_t i = 0; i < sites_; ++i)
-    for (std::size_t j = 0; j < sites_; ++j)
-      site_offset_.push_back(
-          lattice_.wrapped_offset(sites[i].ix - sites[j].ix, sites[i].iy - sites[j].iy));
+  for (const auto& site : sites) {
+    site_ix_.push_back(site.ix);
+    site_iy_.push_back(site.iy);
+  }
   for (std::size_t i = 0; i < sites_; ++i)
     site_surface_.push_back(sites[i].ix + std::int64_t{system.nx()} * sites[i].iy);
   const auto n = static_cast<Eigen::Index>(2 * sites_);
@@ -98,7 +99,7 @@ void LatticeStageSolver::apply_coupling(const Eigen::VectorXd& x, Eigen::VectorX
       for (int a = 0; a < 2; ++a) {
         double sum = 0.0;
         for (std::size_t j = 0; j < sites_; ++j) {
-          const std::int64_t offset = site_offset_[i * sites_ + j];
+          const std::int64_t offset = site_offset(i, j);
           sum += lattice_.green_wrapped(offset, a, 0) * x(2 * j) +
                  lattice_.green_wrapped(offset, a, 1) * x(2 * j + 1);
         }
@@ -177,8 +178,8 @@ long LatticeStageSolver::solve(double t, double gamma, std::span<const double> p
 
 // ∂F/∂β = I + H − H E at the β whose ∂Σ/∂β are in stages_, factorized in
 // place in single precision (why: the header; 0.8 GB at 7 171 contacts). H's
-// entries are the Green's function's, looked up (offsets wrapped once, in the
-// constructor: the wrapping's integer divisions were 9 % of a Fig. 9 block
+// entries are the Green's function's, looked up (offsets wrapped without
+// integer division, site_offset: the divisions were 9 % of a Fig. 9 block
 // slip when H was refilled at every γ).
 void LatticeStageSolver::factorize_jacobian() {
   jacobian_lu_.reset();
@@ -189,7 +190,7 @@ void LatticeStageSolver::factorize_jacobian() {
     const auto& e = stages_[j].ds_db;
     const auto c0 = static_cast<Eigen::Index>(2 * j), c1 = c0 + 1;
     for (std::size_t i = 0; i < sites_; ++i) {
-      const std::int64_t offset = site_offset_[i * sites_ + j];
+      const std::int64_t offset = site_offset(i, j);
       for (int a = 0; a < 2; ++a) {
         const double diagonal = i == j ? 1.0 : 0.0;
         const double h0 =

@@ -74,6 +74,14 @@ class LatticeStageSolver {
   Eigen::VectorXd solve_with_lu(const Eigen::VectorXd& r) const;
   void apply_jacobian(const Eigen::VectorXd& v, Eigen::VectorXd& out);
   bool krylov_step(double relative, Eigen::Index max_iterations);
+  // Site i's offset from site j, wrapped, as LatticeSolver::green_wrapped
+  // takes it (sites lie in [0, Nx) × [0, Ny): one conditional add, no division).
+  std::int64_t site_offset(std::size_t i, std::size_t j) const {
+    int dx = site_ix_[i] - site_ix_[j], dy = site_iy_[i] - site_iy_[j];
+    if (dx < 0) dx += nx_;
+    if (dy < 0) dy += ny_;
+    return dx + std::int64_t{nx_} * dy;
+  }
   // How a Newton iteration solved J δ = −F(β) for its step (newton_step).
   enum class StepSolve {
     fresh_lu,  // with an LU built at this β: Newton's step
@@ -88,8 +96,8 @@ class LatticeStageSolver {
   std::int64_t nodes_;
   std::size_t sites_;
   std::vector<std::int64_t> site_w_;  // state index of each friction site's w^x
-  // Site i's offset from site j, wrapped, as LatticeSolver::green_wrapped takes it.
-  std::vector<std::int64_t> site_offset_;  // [i][j]
+  int nx_, ny_;
+  std::vector<int> site_ix_, site_iy_;  // each friction site's lattice position
   // Each site's node in the bottom layer, ix + Nx iy (LatticeSolver::surface_field).
   std::vector<std::int64_t> site_surface_;
   // For the γ last seen: the bottom layer's self Green's function ḡ (the
