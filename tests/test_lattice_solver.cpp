@@ -459,3 +459,60 @@ TEST_CASE(
   // The first stage's LU preconditioned the rest: far fewer LUs than stages.
   CHECK(solver.contact_factorizations() <= 2);
 }
+
+TEST_CASE(
+    "the contacts' matrix-free Newton steps (GMRES, near-field preconditioner) give the dense "
+    "LU's stage to the solver's tolerance",
+    "[lattice_solver]") {
+  // 200 contacts on half of a 20×20×4 bottom layer, from rest to fast slip,
+  // at step sizes from a slip's to a creep's (γ = 1e-4: H couples every
+  // contact to every other). The two paths differ only in how Newton's steps
+  // are solved; the residual, and so the stage, is the same to the
+  // tolerance the Newton iteration stops at (1e-6 in the weights below).
+  std::vector<Contact> contacts;
+  std::mt19937 rng(7);
+  std::vector<bool> taken(400, false);
+  while (contacts.size() < 200) {
+    const int site = static_cast<int>(rng() % 400);
+    if (taken[static_cast<std::size_t>(site)]) continue;
+    taken[static_cast<std::size_t>(site)] = true;
+    contacts.push_back(
+        {site % 20, site / 20, 4e-4 + 1e-4 * static_cast<double>(contacts.size() % 7)});
+  }
+  const System s = make_system(20, 20, 4, contacts);
+  using Newton = LatticeStageSolver::ContactNewton;
+  LatticeStageSolver dense(s, std::numeric_limits<double>::infinity(), Newton::dense_lu);
+  LatticeStageSolver matrix_free(s, std::numeric_limits<double>::infinity(), Newton::matrix_free);
+  REQUIRE(!dense.matrix_free());
+  REQUIRE(matrix_free.matrix_free());
+  const double speeds[3][2] = {{3e-9, 1e-9}, {-4e-5, 1e-5}, {5e-4, -2e-4}};
+  for (double gamma : {1e-7, 1e-6, 3e-6, 1e-5, 1e-4}) {
+    // A creeping lattice: displacements ~1 nm, velocities ~1 µm/s.
+    std::vector<double> b = random_state(s, 13);
+    for (std::int64_t i = 0; i < 6 * s.num_nodes(); ++i) b[static_cast<std::size_t>(i)] *= 1e-3;
+    for (std::size_t k = 0; k < s.sites().size(); ++k) {
+      b[s.w_index(s.sites()[k].node, 0)] = speeds[k % 3][0];
+      b[s.w_index(s.sites()[k].node, 1)] = speeds[k % 3][1];
+    }
+    std::vector<double> weights(b.size());
+    for (std::size_t i = 0; i < b.size(); ++i) weights[i] = 1.0 / (1e-6 * std::abs(b[i]) + 1e-9);
+    const double t = 1e-4;
+    std::vector<double> z_dense = b, z_free = b;
+    const long dense_iterations = dense.solve(t, gamma, b, weights, z_dense);
+    matrix_free.solve(t, gamma, b, weights, z_free);
+    INFO("gamma " << gamma);
+    CHECK(dense_iterations > 1);  // the contacts are coupled: Newton iterated
+    // Each contact's speed within 1e-5 of its error weight's scale: ten
+    // times the Newton tolerance, for J⁻¹ between residual and speed.
+    double worst = 0.0;
+    for (std::size_t k = 0; k < s.sites().size(); ++k)
+      for (int a = 0; a < 2; ++a) {
+        const auto i = static_cast<std::size_t>(s.w_index(s.sites()[k].node, a));
+        worst = std::max(worst, std::abs(z_free[i] - z_dense[i]) * weights[i]);
+      }
+    CHECK(worst < 1e-5);
+    CHECK(relative_difference(s, z_free, z_dense) < 1e-9);
+  }
+  CHECK(matrix_free.krylov_iterations() > 0);
+  CHECK(matrix_free.contact_factorizations() > 0);  // of the near field
+}

@@ -32,22 +32,26 @@ namespace stickslip {
 // ∂a_c/∂s ~ 1e15 s⁻¹. One contact alone, or contacts the lattice does not
 // couple (H = 0), need no iteration at all.
 
-LatticeStageSolver::LatticeStageSolver(const System& system, double max_gamma_lambda)
+LatticeStageSolver::LatticeStageSolver(const System& system, double max_gamma_lambda,
+                                       ContactNewton contact_newton)
     : system_(system),
       max_gamma_lambda_(max_gamma_lambda),
       lattice_(system),
       nodes_(system.num_nodes()),
       sites_(system.sites().size()),
+      nx_(system.nx()),
+      ny_(system.ny()),
+      matrix_free_(contact_newton == ContactNewton::matrix_free ||
+                   (contact_newton == ContactNewton::by_count && !uses_dense_lu(sites_))),
       zero_(static_cast<std::size_t>(3 * nodes_), 0.0),
       acc_(zero_.size()),
       correction_(zero_.size()) {
   const auto& sites = system.sites();
   for (std::size_t i = 0; i < sites_; ++i) site_w_.push_back(system.w_index(sites[i].node, 0));
-  site_offset_.reserve(sites_ * sites_);
-  for (std::size_t i = 0; i < sites_; ++i)
-    for (std::size_t j = 0; j < sites_; ++j)
-      site_offset_.push_back(
-          lattice_.wrapped_offset(sites[i].ix - sites[j].ix, sites[i].iy - sites[j].iy));
+  for (const auto& site : sites) {
+    site_ix_.push_back(site.ix);
+    site_iy_.push_back(site.iy);
+  }
   for (std::size_t i = 0; i < sites_; ++i)
     site_surface_.push_back(sites[i].ix + std::int64_t{system.nx()} * sites[i].iy);
   const auto n = static_cast<Eigen::Index>(2 * sites_);
@@ -65,6 +69,7 @@ LatticeStageSolver::LatticeStageSolver(const System& system, double max_gamma_la
   // on the other core). A run's threads ([solver] threads) go to the loops
   // whose work is split the same way for any count (see solve_contacts).
   Eigen::setNbThreads(1);
+  if (matrix_free_) find_near_field();
 }
 
 void LatticeStageSolver::prescribe(std::size_t site, std::array<double, 2> acceleration) {
@@ -98,7 +103,7 @@ void LatticeStageSolver::apply_coupling(const Eigen::VectorXd& x, Eigen::VectorX
       for (int a = 0; a < 2; ++a) {
         double sum = 0.0;
         for (std::size_t j = 0; j < sites_; ++j) {
-          const std::int64_t offset = site_offset_[i * sites_ + j];
+          const std::int64_t offset = site_offset(i, j);
           sum += lattice_.green_wrapped(offset, a, 0) * x(2 * j) +
                  lattice_.green_wrapped(offset, a, 1) * x(2 * j + 1);
         }
@@ -176,8 +181,8 @@ long LatticeStageSolver::solve(double t, double gamma, std::span<const double> p
 
 // ∂F/∂β = I + H − H E at the β whose ∂Σ/∂β are in stages_, factorized in
 // place in single precision (why: the header; 0.8 GB at 7 171 contacts). H's
-// entries are the Green's function's, looked up (offsets wrapped once, in the
-// constructor: the wrapping's integer divisions were 9 % of a Fig. 9 block
+// entries are the Green's function's, looked up (offsets wrapped without
+// integer division, site_offset: the divisions were 9 % of a Fig. 9 block
 // slip when H was refilled at every γ).
 void LatticeStageSolver::factorize_jacobian() {
   jacobian_lu_.reset();
@@ -188,7 +193,7 @@ void LatticeStageSolver::factorize_jacobian() {
     const auto& e = stages_[j].ds_db;
     const auto c0 = static_cast<Eigen::Index>(2 * j), c1 = c0 + 1;
     for (std::size_t i = 0; i < sites_; ++i) {
-      const std::int64_t offset = site_offset_[i * sites_ + j];
+      const std::int64_t offset = site_offset(i, j);
       for (int a = 0; a < 2; ++a) {
         const double diagonal = i == j ? 1.0 : 0.0;
         const double h0 =
@@ -251,6 +256,8 @@ constexpr double kMaxForcing = 0.1;
 // GMRES restarts after this many iterations: the Arnoldi basis is
 // n × (restart + 1) doubles, allocated and cleared at each call.
 constexpr Eigen::Index kGmresRestart = 30;
+// Matrix free: GMRES's iterations per Newton step at most.
+constexpr Eigen::Index kMaxMatrixFreeKrylov = 300;
 
 // What an LU of the contacts' 2 N_c × 2 N_c Newton matrix costs, counted in
 // the iterations it saves (measured on 15×15×10 and 30×30×10 and 60×60×10:
@@ -290,6 +297,91 @@ bool too_slow(double norm, double trial_norm, int it, const LuPrice& price) {
 
 }  // namespace
 
+// Matrix free (above kMaxDenseSites): no dense matrix is built. Newton's
+// step is solved by GMRES on the exact product J v = v + H (I − E) v (one FFT
+// coupling product), preconditioned by a sparse LU of J's near field: the
+// blocks J_ij = δ_ij I + H_ij (I − E_j) of sites i, j at most
+// kNearFieldRadius lattice spacings apart in x and in y. H decays with
+// distance, so the near field holds the part of J that changes fastest from
+// site to site; what it leaves out is smooth over the contacts and GMRES
+// resolves it in a few iterations. The near field has at most 9 blocks a row
+// (radius 1), so its memory and its LU's fill stay O(N_c) in practice, not the
+// dense matrix's 16 N_c² bytes and N_c³ flops.
+namespace {
+// Sites at most this many lattice spacings apart in x and in y are the near
+// field. Measured (docs/PERFORMANCE.md): on 60×60×10 at θ = 0.498 GMRES took
+// the same iterations for radii 0 (block Jacobi) to 3, radius 2 a 1.4× slower
+// step than 1 in its larger LU and solves; on 200 contacts at half coverage at
+// γ = 1e-4 (tests/test_lattice_solver.cpp), ~12, ~9 and ~6 iterations a
+// Newton step for radii 0, 1 and 2.
+constexpr int kNearFieldRadius = 1;
+// The near field's LU is rebuilt when GMRES needs more than this many times
+// the iterations it took just after the LU was built (at least 2).
+constexpr double kNearFieldRebuild = 2.0;
+}  // namespace
+
+void LatticeStageSolver::find_near_field() {
+  std::vector<std::int64_t> site_at(static_cast<std::size_t>(nx_) * ny_, -1);
+  for (std::size_t j = 0; j < sites_; ++j)
+    site_at[static_cast<std::size_t>(site_ix_[j] + std::int64_t{nx_} * site_iy_[j])] =
+        static_cast<std::int64_t>(j);
+  // Offsets within the radius, each periodic image once.
+  const int rx = std::min(kNearFieldRadius, (nx_ - 1) / 2),
+            ry = std::min(kNearFieldRadius, (ny_ - 1) / 2);
+  near_start_.assign(1, 0);
+  near_site_.clear();
+  for (std::size_t i = 0; i < sites_; ++i) {
+    for (int dy = -ry; dy <= ry; ++dy)
+      for (int dx = -rx; dx <= rx; ++dx) {
+        const int x = (site_ix_[i] + dx + nx_) % nx_, y = (site_iy_[i] + dy + ny_) % ny_;
+        const std::int64_t j = site_at[static_cast<std::size_t>(x + std::int64_t{nx_} * y)];
+        if (j >= 0) near_site_.push_back(static_cast<std::size_t>(j));
+      }
+    near_start_.push_back(near_site_.size());
+  }
+  const auto n = static_cast<Eigen::Index>(2 * sites_);
+  std::vector<Eigen::Triplet<double>> pattern;
+  pattern.reserve(4 * near_site_.size());
+  for (std::size_t i = 0; i < sites_; ++i)
+    for (std::size_t k = near_start_[i]; k < near_start_[i + 1]; ++k)
+      for (int a = 0; a < 2; ++a)
+        for (int b = 0; b < 2; ++b)
+          pattern.emplace_back(static_cast<Eigen::Index>(2 * i + a),
+                               static_cast<Eigen::Index>(2 * near_site_[k] + b), 1.0);
+  near_matrix_.resize(n, n);
+  near_matrix_.setFromTriplets(pattern.begin(), pattern.end());
+  near_matrix_.makeCompressed();
+  near_lu_.analyzePattern(near_matrix_);
+}
+
+// J's near field at the β whose ∂Σ/∂β are in stages_, into near_matrix_'s
+// fixed pattern, and its sparse LU.
+void LatticeStageSolver::factorize_near_field() {
+  near_matrix_.coeffs().setZero();
+  for (std::size_t i = 0; i < sites_; ++i)
+    for (std::size_t k = near_start_[i]; k < near_start_[i + 1]; ++k) {
+      const std::size_t j = near_site_[k];
+      const auto& e = stages_[j].ds_db;
+      const std::int64_t offset = site_offset(i, j);
+      for (int a = 0; a < 2; ++a) {
+        const double diagonal = i == j ? 1.0 : 0.0;
+        const double h0 =
+            lattice_.green_wrapped(offset, a, 0) / self_green_ - (a == 0 ? diagonal : 0.0);
+        const double h1 =
+            lattice_.green_wrapped(offset, a, 1) / self_green_ - (a == 1 ? diagonal : 0.0);
+        const auto r = static_cast<Eigen::Index>(2 * i + a);
+        const auto c0 = static_cast<Eigen::Index>(2 * j), c1 = c0 + 1;
+        near_matrix_.coeffRef(r, c0) = h0 - (h0 * e[0] + h1 * e[2]) + (a == 0 ? diagonal : 0.0);
+        near_matrix_.coeffRef(r, c1) = h1 - (h0 * e[1] + h1 * e[3]) + (a == 1 ? diagonal : 0.0);
+      }
+    }
+  near_lu_.factorize(near_matrix_);
+  if (near_lu_.info() != Eigen::Success)
+    throw StageNotConverged("the contacts' near-field Newton matrix is singular");
+  near_lu_ready_ = true;
+  ++factorizations_;
+}
+
 // Newton's step J δ = −F(β), by GMRES preconditioned with the kept LU (built
 // at an earlier β, γ or stage). The LU's own step is modified Newton's; the
 // Krylov iterations correct it for how far J has moved since, each for one
@@ -320,6 +412,51 @@ bool LatticeStageSolver::krylov_step(double relative, Eigen::Index max_iteration
   return error <= relative;
 }
 
+// Newton's step, matrix free: GMRES on J preconditioned by the near field's
+// sparse LU, kept across iterations, stages and steps (J moves with β and γ)
+// and rebuilt at this β when GMRES needs more than kNearFieldRebuild times the
+// iterations it took just after the last build, or does not converge.
+void LatticeStageSolver::near_field_step(double norm) {
+  struct Operator {
+    LatticeStageSolver* solver;
+    Eigen::Index rows() const { return solver->step_.size(); }
+    Eigen::Index cols() const { return rows(); }
+    Eigen::VectorXd operator*(const Eigen::VectorXd& v) const {
+      Eigen::VectorXd out(v.size());
+      solver->apply_jacobian(v, out);
+      return out;
+    }
+  };
+  struct Preconditioner {
+    const LatticeStageSolver* solver;
+    Eigen::VectorXd solve(const Eigen::VectorXd& r) const { return solver->near_lu_.solve(r); }
+  };
+  const double relative = std::clamp(kForcing * kTolerance / norm, kMinForcing, kMaxForcing);
+  const Eigen::VectorXd rhs = -residual_;
+  for (bool fresh = false;;) {
+    if (!near_lu_ready_) {
+      factorize_near_field();
+      fresh = true;
+    }
+    step_.setZero();
+    Eigen::Index iterations = kMaxMatrixFreeKrylov;
+    double error = relative;
+    Eigen::internal::gmres(Operator{this}, rhs, step_, Preconditioner{this}, iterations,
+                           kGmresRestart, error);
+    krylov_iterations_ += iterations;
+    const bool converged = error <= relative;
+    if (fresh) {  // converged or not: the best step at hand
+      fresh_krylov_ = iterations;
+      return;
+    }
+    const double limit =
+        kNearFieldRebuild * static_cast<double>(std::max<Eigen::Index>(fresh_krylov_, 2));
+    if (converged && static_cast<double>(iterations) <= limit) return;
+    near_lu_ready_ = false;  // stale: rebuilt at the next step, or now if GMRES failed
+    if (converged) return;
+  }
+}
+
 // The Newton step δ (into step_) for J δ = −F(β), F(β) in residual_, and the
 // LU's refresh policy: the LU is built where there is none; by GMRES
 // (`krylov`: the kept LU's own steps went wrong or slow in this solve) while
@@ -334,6 +471,10 @@ bool LatticeStageSolver::krylov_step(double relative, Eigen::Index max_iteration
 LatticeStageSolver::StepSolve LatticeStageSolver::newton_step(bool krylov, double norm,
                                                               double lu_in_krylov,
                                                               Eigen::Index max_krylov) {
+  if (matrix_free_) {
+    near_field_step(norm);
+    return StepSolve::krylov;
+  }
   StepSolve solved = StepSolve::kept_lu;
   if (!jacobian_lu_) {
     factorize_jacobian();

@@ -12,6 +12,7 @@
 // solves (LatticeSolver) per stage; nothing here knows of SUNDIALS.
 
 #include <Eigen/Dense>
+#include <Eigen/SparseLU>
 #include <optional>
 #include <span>
 #include <vector>
@@ -28,7 +29,20 @@ class LatticeStageSolver {
   // integrator then retries a shorter step (why: solve() in the .cpp).
   static constexpr double kMaxGammaLambda = 1.0;
 
-  explicit LatticeStageSolver(const System& system, double max_gamma_lambda = kMaxGammaLambda);
+  // How the contacts' Newton steps are solved (solve_contacts in the .cpp):
+  // with a dense LU of their 2 N_c × 2 N_c Newton matrix, or matrix free, by
+  // GMRES on the FFT coupling preconditioned with a sparse LU of the matrix's
+  // near field. `by_count` picks by the number of friction sites
+  // (uses_dense_lu); the others are for tests.
+  enum class ContactNewton { by_count, dense_lu, matrix_free };
+  // The rule: a dense LU up to this many friction sites, matrix free above
+  // (measured: docs/PERFORMANCE.md, "The contacts' Newton steps without a
+  // dense matrix").
+  static constexpr std::size_t kMaxDenseSites = 200;
+  static bool uses_dense_lu(std::size_t sites) { return sites <= kMaxDenseSites; }
+
+  explicit LatticeStageSolver(const System& system, double max_gamma_lambda = kMaxGammaLambda,
+                              ContactNewton contact_newton = ContactNewton::by_count);
 
   // z holds b on entry and the solution on return. `predictor` (the
   // integrator's guess for z) picks among several roots on the
@@ -63,7 +77,10 @@ class LatticeStageSolver {
   // LU factorizations of the contacts' Newton matrix so far, and Krylov
   // iterations on the contacts' Newton steps (each one coupling product and
   // one solve with the LU).
+  // Matrix free: factorizations of the near-field preconditioner instead,
+  // and each Krylov iteration one coupling product and one sparse solve.
   long contact_factorizations() const { return factorizations_; }
+  bool matrix_free() const { return matrix_free_; }
   long krylov_iterations() const { return krylov_iterations_; }
 
  private:
@@ -74,6 +91,17 @@ class LatticeStageSolver {
   Eigen::VectorXd solve_with_lu(const Eigen::VectorXd& r) const;
   void apply_jacobian(const Eigen::VectorXd& v, Eigen::VectorXd& out);
   bool krylov_step(double relative, Eigen::Index max_iterations);
+  // Site i's offset from site j, wrapped, as LatticeSolver::green_wrapped
+  // takes it (sites lie in [0, Nx) × [0, Ny): one conditional add, no division).
+  std::int64_t site_offset(std::size_t i, std::size_t j) const {
+    int dx = site_ix_[i] - site_ix_[j], dy = site_iy_[i] - site_iy_[j];
+    if (dx < 0) dx += nx_;
+    if (dy < 0) dy += ny_;
+    return dx + std::int64_t{nx_} * dy;
+  }
+  void find_near_field();
+  void factorize_near_field();
+  void near_field_step(double norm);
   // How a Newton iteration solved J δ = −F(β) for its step (newton_step).
   enum class StepSolve {
     fresh_lu,  // with an LU built at this β: Newton's step
@@ -88,8 +116,9 @@ class LatticeStageSolver {
   std::int64_t nodes_;
   std::size_t sites_;
   std::vector<std::int64_t> site_w_;  // state index of each friction site's w^x
-  // Site i's offset from site j, wrapped, as LatticeSolver::green_wrapped takes it.
-  std::vector<std::int64_t> site_offset_;  // [i][j]
+  int nx_, ny_;
+  std::vector<int> site_ix_, site_iy_;  // each friction site's lattice position
+  bool matrix_free_;
   // Each site's node in the bottom layer, ix + Nx iy (LatticeSolver::surface_field).
   std::vector<std::int64_t> site_surface_;
   // For the γ last seen: the bottom layer's self Green's function ḡ (the
@@ -113,6 +142,16 @@ class LatticeStageSolver {
   long krylov_iterations_ = 0;
   // Krylov iterations beyond one a step spent with the LU since it was built.
   double stale_krylov_ = 0.0;
+  // Matrix free: the near field, pairs of sites (i, j) within
+  // kNearFieldRadius lattice spacings (the .cpp), j's index in near_site_
+  // from near_start_[i] to near_start_[i + 1]; the Newton matrix restricted
+  // to it, in double precision, and its sparse LU (pattern analysed once).
+  std::vector<std::size_t> near_start_, near_site_;
+  Eigen::SparseMatrix<double> near_matrix_;
+  Eigen::SparseLU<Eigen::SparseMatrix<double>> near_lu_;
+  bool near_lu_ready_ = false;
+  // Krylov iterations of the first step after the near-field LU was built.
+  Eigen::Index fresh_krylov_ = 0;
   std::vector<ContactStage> stages_;
   std::vector<double> predicted_speed_;
   std::vector<char> prescribed_;  // per site
