@@ -169,7 +169,6 @@ nlohmann::json ArkStepIntegrator::description() const {
                       {"integrator", integrator_text(solver_.method, solver_.linear_solver)},
                       {"order", order},
                       {"stages", bi ? bi->stages : (be ? be->stages : 0)}};
-  describe_solve(d);
   return d;
 }
 

@@ -119,7 +119,6 @@ nlohmann::json CvodeIntegrator::description() const {
                       {"integrator", integrator_text(solver_.method, solver_.linear_solver)},
                       {"max_order", max_order_},
                       {"stability_limit_detection", max_order_ >= 3}};
-  describe_solve(d);
   return d;
 }
 

@@ -111,19 +111,6 @@ void SteppingIntegrator::add_stage_stats(SolverStats& s) const {
   }
 }
 
-void SteppingIntegrator::describe_solve(nlohmann::json& d) const {
-  if (method_.whole_implicit)
-    d["linear_solver"] = to_string(linear_solver_info(solver_.linear_solver).solver);
-  if (solver_.step > 0) {
-    d["fixed_step"] = solver_.step;
-    return;
-  }
-  d["adaptive"] = true;
-  d["rtol"] = solver_.rtol;
-  d["atol_displacement"] = solver_.atol_displacement;
-  d["atol_velocity"] = solver_.atol_velocity;
-}
-
 void SteppingIntegrator::rethrow_pending() {
   if (!pending_) return;
   message_.take();  // SUNDIALS' word on the callback's failure: the exception says more

@@ -81,8 +81,6 @@ class SteppingIntegrator : public Integrator {
   void check(int flag, const char* call);
   // The stage solver's part of the statistics (exact stage solves only).
   void add_stage_stats(SolverStats& s) const;
-  // summary.json's linear solver, and the fixed step or the tolerances.
-  void describe_solve(nlohmann::json& d) const;
   // Rethrows an exception a callback stored (after each package call).
   void rethrow_pending();
 
