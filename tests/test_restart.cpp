@@ -274,6 +274,25 @@ void interrupt(const Case& c, const RunOptions& options) {
 
 }  // namespace
 
+TEST_CASE("a run stops when RunOptions::stop_signal asks, no handler or signal needed",
+          "[restart]") {
+  const test::TempDir tmp("stickslip_test_restart_stop_option");
+  const Case c = parse_case(kTiny, tmp.path / "tiny.toml");
+  RunOptions options{.out_dir = tmp.path / "run", .quiet = true};
+  options.stop_signal = [] { return SIGTERM; };
+  try {
+    run_case(c, options);
+    FAIL("the run did not stop");
+  } catch (const Interrupted& stopped) {
+    CHECK(stopped.signal == SIGTERM);
+    CHECK(stopped.t < c.run.t_end);
+  }
+  REQUIRE(fs::exists(options.out_dir / kCheckpointFile));
+  options.stop_signal = nullptr;
+  options.restart = true;
+  CHECK(run_case(c, options).t_end == 2e-5);
+}
+
 TEST_CASE("a restart continues a run whose summary.json is cut short, a whole one is refused",
           "[restart]") {
   const test::TempDir tmp("stickslip_test_restart_cut_summary");

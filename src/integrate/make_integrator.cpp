@@ -2,6 +2,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "stickslip/integrate/arkstep_integrator.hpp"
 #include "stickslip/integrate/cvode_integrator.hpp"
@@ -38,11 +39,25 @@ MethodChoice choose_method(const System& system, const SolverParams& solver) {
                             "is the fastest at equal accuracy (docs/PERFORMANCE.md)"};
 }
 
+ResolvedSolver resolve_solver(const System& system, const SolverParams& given) {
+  ResolvedSolver solver{given, with_absolute_tolerances(system, given), {}};
+  MethodChoice choice = choose_method(system, given);
+  solver.params.method = choice.method;
+  if (given.method == Method::automatic) solver.chosen_by = std::move(choice.reason);
+  return solver;
+}
+
 std::unique_ptr<Integrator> make_integrator(const System& system, const SolverParams& solver,
                                             std::span<const double> y0, double t_stop,
                                             IntegratorOptions options, double t0) {
-  SolverParams chosen = with_absolute_tolerances(system, solver);
-  chosen.method = choose_method(system, solver).method;
+  return make_integrator(system, resolve_solver(system, solver), y0, t_stop, std::move(options),
+                         t0);
+}
+
+std::unique_ptr<Integrator> make_integrator(const System& system, const ResolvedSolver& solver,
+                                            std::span<const double> y0, double t_stop,
+                                            IntegratorOptions options, double t0) {
+  const SolverParams& chosen = solver.params;
   switch (method_info(chosen.method).package) {
     case Package::arkstep:
       return std::make_unique<ArkStepIntegrator>(system, chosen, y0, t0, t_stop,
@@ -54,6 +69,23 @@ std::unique_ptr<Integrator> make_integrator(const System& system, const SolverPa
                                                    std::move(options));
   }
   throw std::logic_error("make_integrator: no adapter for the method's package");
+}
+
+nlohmann::json describe_solver(const System& system, const ResolvedSolver& solver,
+                               const Integrator& integrator) {
+  const SolverParams& p = solver.params;
+  nlohmann::json d = integrator.description();
+  if (method_info(p.method).whole_implicit)
+    d["linear_solver"] = to_string(linear_solver_info(p.linear_solver).solver);
+  if (p.step > 0) {
+    d["fixed_step"] = p.step;
+  } else {
+    d["adaptive"] = true;
+    d.update(describe_tolerances(system, solver.given, p));
+  }
+  if (!solver.chosen_by.empty()) d["chosen_by"] = solver.chosen_by;
+  d["threads"] = system.threads();
+  return d;
 }
 
 }  // namespace stickslip

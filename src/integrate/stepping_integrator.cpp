@@ -10,25 +10,42 @@
 
 namespace stickslip {
 
-SteppingIntegrator::SteppingIntegrator(const System& system, const SolverParams& solver,
+SteppingIntegrator::SteppingIntegrator(const PackageCalls& calls, const System& system,
+                                       const SolverParams& solver, std::span<const double> y0,
                                        IntegratorOptions options, double t0, double t_stop)
-    : system_(system),
-      solver_(solver),
+    : solver_(solver),
       method_(method_info(solver.method)),
       stages_(stage_solve(solver.method, solver.linear_solver)),
+      y_(make_serial_vector(y0, ctx_)),
+      calls_(calls),
+      system_(system),
       options_(std::move(options)),
+      roots_(options_.watched_contacts.size(), 0),
+      peaks_(options_.watched_contacts.size()),
       poll_steps_(poll_steps(solver.method, solver.linear_solver)),
       t_stop_(t_stop),
-      t_last_step_(t0) {}
-
-void SteppingIntegrator::init_stepping(std::size_t watched_contacts) {
-  roots_.assign(watched_contacts, 0);
-  peaks_ = SpeedPeaks(watched_contacts);
-  pending_y_.reset(N_VClone(y_.get()));
+      t_last_step_(t0),
+      pending_y_(N_VClone(y_.get())),
+      mem_(nullptr, PackageFree{calls.free}) {
   if (options_.on_step) {
     scratch_error_.reset(N_VClone(y_.get()));
     scratch_weights_.reset(N_VClone(y_.get()));
   }
+}
+
+void SteppingIntegrator::adopt_package(void* mem, const char* create_call) {
+  check_created(mem, create_call);
+  mem_.reset(mem);
+  check_call(calls_.set_err_handler_fn(mem, record_solver_message, &message_), "SetErrHandlerFn");
+}
+
+void SteppingIntegrator::set_up_package() {
+  check_call(calls_.set_user_data(mem(), static_cast<SteppingIntegrator*>(this)), "SetUserData");
+  atol_ = make_serial_vector(absolute_tolerances(system_, solver_), ctx_);
+  check_call(calls_.sv_tolerances(mem(), solver_.rtol, atol_.get()), "SVtolerances");
+  check_call(calls_.set_stop_time(mem(), t_stop_), "SetStopTime");
+  if (!roots_.empty())
+    check_call(calls_.root_init(mem(), static_cast<int>(roots_.size()), root_fn), "RootInit");
 }
 
 int SteppingIntegrator::full_rhs(double t, N_Vector y, N_Vector ydot, void* self) {
@@ -61,20 +78,69 @@ int SteppingIntegrator::root_fn(double t, N_Vector y, double* g, void* self) {
   });
 }
 
-void SteppingIntegrator::make_per_contact_stages(StagePackage package) {
+void SteppingIntegrator::solve_per_contact() {
   const System& system = system_;
   stage_solver_ = make_exact_stage_solver(
-      ctx_, package,
+      ctx_, calls_.stage_package,
       [&system](double, double gamma, std::span<const double> predictor, std::span<const double>,
                 std::span<double> z) { return system.solve_implicit_stage(gamma, predictor, z); },
       stage_stats_, pending_);
+  check_call(calls_.set_nonlinear_solver(mem(), stage_solver_.get()), "SetNonlinearSolver");
 }
 
-void SteppingIntegrator::make_lattice_stages(StagePackage package) {
+void SteppingIntegrator::solve_lattice() {
+  // Steps grow to ~1e-4 s while the contacts creep; where a slip starts
+  // they must shrink by 1e5 within one step, more than the default 7
+  // error-test failures (each cuts h by at most 10×) allow.
+  check_call(calls_.set_max_err_test_fails(mem(), kMaxErrorTestFailures), "SetMaxErrTestFails");
+  check_call(calls_.set_max_conv_fails(mem(), kMaxStageFailures), "SetMaxConvFails");
   lattice_stages_ = std::make_unique<LatticeStageSolver>(system_);
   stage_solver_ = make_exact_stage_solver(
-      ctx_, package, std::bind_front(&LatticeStageSolver::solve, lattice_stages_.get()),
-      stage_stats_, pending_);
+      ctx_, calls_.stage_package,
+      std::bind_front(&LatticeStageSolver::solve, lattice_stages_.get()), stage_stats_, pending_);
+  check_call(calls_.set_nonlinear_solver(mem(), stage_solver_.get()), "SetNonlinearSolver");
+}
+
+double SteppingIntegrator::current_time() const {
+  double t = 0.0;
+  calls_.get_current_time(mem(), &t);
+  return t;
+}
+
+long SteppingIntegrator::steps_taken() const {
+  long n = 0;
+  calls_.get_num_steps(mem(), &n);
+  return n;
+}
+
+double SteppingIntegrator::last_step_size() const {
+  double h = 0.0;
+  calls_.get_last_step(mem(), &h);
+  return h;
+}
+
+int SteppingIntegrator::evolve(double t_out, double* t, bool one_step) {
+  const int flag = calls_.evolve(mem(), t_out, y_.get(), t,
+                                 one_step ? calls_.one_step_task : calls_.normal_task);
+  rethrow_pending();
+  return flag;
+}
+
+void SteppingIntegrator::root_info(int* roots) {
+  check_call(calls_.get_root_info(mem(), roots), "GetRootInfo");
+}
+
+void SteppingIntegrator::interpolate(double t, N_Vector y) {
+  check_call(calls_.get_dky(mem(), t, 0, y), "GetDky");
+}
+
+bool SteppingIntegrator::local_errors(N_Vector error, N_Vector weights) const {
+  return calls_.get_est_local_errors(mem(), error) >= 0 &&
+         calls_.get_err_weights(mem(), weights) >= 0;
+}
+
+std::string SteppingIntegrator::flag_name(int flag) const {
+  return stickslip::flag_name(calls_.get_return_flag_name, flag);
 }
 
 double SteppingIntegrator::local_error_norm() {
@@ -90,7 +156,7 @@ void SteppingIntegrator::throw_failure(int flag, double t) {
   NVectorPtr err(N_VClone(y_.get())), weights(N_VClone(y_.get()));
   const bool have = local_errors(err.get(), weights.get());
   message_.take();
-  throw IntegrationError(describe_failure(system_, evolve_name(), flag_name(flag), said, t,
+  throw IntegrationError(describe_failure(system_, calls_.evolve_name, flag_name(flag), said, t,
                                           err.get(), weights.get(), have));
 }
 
@@ -101,6 +167,11 @@ void SteppingIntegrator::check(int flag, const char* call) {
   throw IntegrationError(what);
 }
 
+void SteppingIntegrator::check_call(int flag, const char* call_suffix) {
+  if (flag >= 0) return;
+  check(flag, (std::string(calls_.prefix) + call_suffix).c_str());
+}
+
 void SteppingIntegrator::add_stage_stats(SolverStats& s) const {
   if (stages_ == StageSolve::per_contact || stages_ == StageSolve::exact_lattice)
     s.newton_iterations = stage_stats_.iterations;
@@ -109,19 +180,6 @@ void SteppingIntegrator::add_stage_stats(SolverStats& s) const {
     s.jacobian_evaluations = lattice_stages_->contact_factorizations();
     s.krylov_iterations = lattice_stages_->krylov_iterations();
   }
-}
-
-void SteppingIntegrator::describe_solve(nlohmann::json& d) const {
-  if (method_.whole_implicit)
-    d["linear_solver"] = to_string(linear_solver_info(solver_.linear_solver).solver);
-  if (solver_.step > 0) {
-    d["fixed_step"] = solver_.step;
-    return;
-  }
-  d["adaptive"] = true;
-  d["rtol"] = solver_.rtol;
-  d["atol_displacement"] = solver_.atol_displacement;
-  d["atol_velocity"] = solver_.atol_velocity;
 }
 
 void SteppingIntegrator::rethrow_pending() {
@@ -158,7 +216,9 @@ double SteppingIntegrator::advance_normal(double t_out, std::span<double> y) {
   int flag = kSuccess;
   for (;;) {
     throw_if_out_of_steps();
-    set_max_steps(std::min(poll_steps_, solver_.max_steps - steps_taken()));
+    check_call(
+        calls_.set_max_num_steps(mem(), std::min(poll_steps_, solver_.max_steps - steps_taken())),
+        "SetMaxNumSteps");
     flag = evolve(t_out, &t, false);
     if (flag != kTooMuchWork) break;
     if (options_.poll && options_.poll()) return finish(t, y);  // y_: the state at t, a step's end

@@ -37,8 +37,7 @@ SolverParams with_absolute_tolerances(const System& system, SolverParams solver)
   return solver;
 }
 
-std::vector<double> absolute_tolerances(const System& system, const SolverParams& given) {
-  const SolverParams solver = with_absolute_tolerances(system, given);
+std::vector<double> absolute_tolerances(const System& system, const SolverParams& solver) {
   const std::int64_t n = system.num_nodes();
   std::vector<double> atol(static_cast<std::size_t>(system.size()));
   std::fill(atol.begin(), atol.begin() + 3 * n, solver.atol_displacement);
@@ -53,8 +52,8 @@ std::vector<double> absolute_tolerances(const System& system, const SolverParams
   return atol;
 }
 
-nlohmann::json describe_tolerances(const System& system, const SolverParams& given) {
-  const SolverParams solver = with_absolute_tolerances(system, given);
+nlohmann::json describe_tolerances(const System& system, const SolverParams& given,
+                                   const SolverParams& solver) {
   const ToleranceScales scale = tolerance_scales(system);
   auto origin = [&](double set, const char* rule) {
     return set > 0 ? std::string("given") : std::string(rule);

@@ -148,8 +148,10 @@ std::vector<std::string> result_files() {
 }
 }  // namespace
 
-// Everything a run holds between its phases: what run_case's loop kept in
-// locals, named.
+// Everything a run holds between its phases, grouped by what it is for. It
+// owns all it refers to: a copy of the Case (the caller's may go before the
+// run does), the System, and after them what refers to the System (the
+// recorders, the integrator), so nothing outlives what it points into.
 struct CaseRun::State {
   State(const Case& c, const RunOptions& options);
 
@@ -175,37 +177,45 @@ struct CaseRun::State {
   // point's wall time is that of every attempt up to its checkpoint.
   double total_wall_seconds() const;
 
-  const Case& c;
+  // What the run is: its case and options (the output directory is
+  // options.out_dir), and the signal that asks it to stop (0: none yet).
+  const Case c;
   const RunOptions options;
-  const std::filesystem::path dir;
-  const Clock::time_point wall_start = Clock::now();
-  bool extends_finished = false;  // set by open_output_dir, which makes `resume`
-  std::optional<Checkpoint> resume;
-  std::unique_ptr<const System> system_owned;
-  const System& system;
+  const std::function<int()> stop_signal;
+  const Clock::time_point wall_start = Clock::now();  // its set-up counts too
+  // The run this one continues, on a restart: its checkpoint, and whether the
+  // directory held it finished (open_output_dir sets both, before the System
+  // is built).
+  bool extends_finished = false;
+  const std::optional<Checkpoint> resume;
+  // The model and its state: at t = 0, and now.
+  const System system;
   std::vector<double> y0, y;
+  // The outputs: the tables, their recorders, the contacts whose events are
+  // watched (the integrator's roots, in this order), the last flush.
   std::unique_ptr<TableStore> tables;
   std::vector<int> watched;
   std::vector<std::unique_ptr<Recorder>> recorders;
   Clock::time_point last_flush = Clock::now();
+  // The integration: the case's [solver] resolved once, the solver's counts
+  // before a restart, and the integrator.
+  ResolvedSolver solver;
   SolverStats stats_before;
-  MethodChoice method;
   std::unique_ptr<Integrator> integrator;
-  Progress progress;
-  double t_end, t_avg, dt;
-  long outputs;
-  long next = 1;  // the next output row
-  double impulse_at_avg;
+  // Where the run is: output rows after t = 0 (ceil(t_end / interval)) and
+  // the next to record, 1 ... rows; the next checkpoint time (∞ if none).
+  long rows = 0;
+  long next_row = 1;
+  double next_checkpoint = kInfinity;
+  // μ averages the friction impulse from run.average_from: its index in the
+  // state, and its value there (NaN until the run reaches it).
+  std::size_t impulse_index = 0;
+  double impulse_at_average = std::nan("");
   std::vector<RunSegment> segments;  // every attempt of the run, this one last
-  std::int64_t impulse;
-  double every, next_checkpoint;
+  Progress progress;
 };
 
 namespace {
-std::unique_ptr<const System> make_system(const Case& c) {
-  return std::make_unique<const System>(c, place_contacts(c.lattice, c.interface));
-}
-
 std::string seconds(double t) {
   char text[32];
   std::snprintf(text, sizeof text, "%.9g s", t);
@@ -318,14 +328,19 @@ std::optional<Checkpoint> open_output_dir(const Case& c, const RunOptions& optio
 }
 }  // namespace
 
+// The stop request of SIGINT and SIGTERM, caught by the handlers above.
+int stop_signal_caught() {
+  return g_stop_signal;
+}
+
 CaseRun::State::State(const Case& c_, const RunOptions& options_)
     : c(c_),
       options(options_),
-      dir(options_.out_dir),
+      stop_signal(options_.stop_signal ? options_.stop_signal : stop_signal_caught),
       resume(open_output_dir(c_, options_, extends_finished)),
-      system_owned(make_system(c_)),
-      system(*system_owned),
+      system(c_, place_contacts(c_.lattice, c_.interface)),
       progress(!options_.quiet, c_.run.t_end, options_.on_progress) {
+  const std::filesystem::path& dir = options.out_dir;
   const auto& contacts = system.contacts();
   y0.resize(static_cast<std::size_t>(system.size()));
   system.initial_state(c.run.initial, y0);
@@ -349,13 +364,13 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
   integrator_options.watched_contacts = watched;
   // Between output times too, every few hundred steps (the method's poll
   // interval, case/methods.hpp): flush the outputs now and then, and stop at
-  // once when SIGINT or SIGTERM arrived.
+  // once when a stop is requested.
   integrator_options.poll = [this] {
     if (seconds_since(last_flush) > kFlushSeconds) {
       flush_all();
       last_flush = Clock::now();
     }
-    return g_stop_signal != 0;
+    return stop_signal() != 0;
   };
   std::vector<Recorder*> step_recorders;
   for (const auto& r : recorders)
@@ -365,33 +380,33 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
       for (Recorder* r : step_recorders) r->step(step);
     };
 
+  solver = resolve_solver(system, c.solver);
   stats_before = resume ? resume->stats : SolverStats{};
-  SolverParams solver = c.solver;  // max_steps counts the steps before a restart too
-  solver.max_steps = std::max(1L, c.solver.max_steps - stats_before.steps);
-  method = choose_method(system, c.solver);  // "auto" resolved, once
-  solver.method = method.method;
+  // max_steps counts the steps before a restart too: the integrator's budget is what is left.
+  solver.params.max_steps = std::max(1L, c.solver.max_steps - stats_before.steps);
   integrator =
       make_integrator(system, solver, y, c.run.t_end, integrator_options, resume ? resume->t : 0.0);
 
   if (!resume) record(0.0);
-  t_end = c.run.t_end;
-  t_avg = c.run.average_from;
-  dt = c.output.interval;
-  outputs = static_cast<long>(std::ceil(t_end / dt - 1e-9));
+  const double t_end = c.run.t_end, dt = c.output.interval;
+  rows = static_cast<long>(std::ceil(t_end / dt - 1e-9));
   // The next row is the first output time after the checkpoint's: a finished
   // run whose t_end is off the output grid wrote its last row there, before
   // output time output_index·dt, which a run continued past it records too.
   const bool off_grid =
       resume && resume->t < static_cast<double>(resume->output_index) * dt * (1 - 1e-9);
-  next = !resume                         ? 1
-         : off_grid && t_end > resume->t ? resume->output_index
-                                         : resume->output_index + 1;
-  impulse_at_avg = resume ? resume->impulse_at_average : (t_avg == 0.0 ? 0.0 : std::nan(""));
+  next_row = !resume                         ? 1
+             : off_grid && t_end > resume->t ? resume->output_index
+                                             : resume->output_index + 1;
+  if (c.run.checkpoint_every > 0)
+    next_checkpoint = (resume ? resume->t : 0.0) + c.run.checkpoint_every;
+  impulse_index = static_cast<std::size_t>(system.quadrature_index(System::friction_impulse));
+  if (resume)
+    impulse_at_average = resume->impulse_at_average;
+  else if (c.run.average_from == 0.0)
+    impulse_at_average = 0.0;
   segments = resume ? resume->segments : std::vector<RunSegment>{};
   segments.push_back({resume ? resume->t : 0.0, kGitCommit});
-  impulse = system.quadrature_index(System::friction_impulse);
-  every = c.run.checkpoint_every;
-  next_checkpoint = every > 0 ? (resume ? resume->t : 0.0) + every : kInfinity;
   // Continued past its end, the run is no longer finished: until it is, the
   // directory holds a stopped run (its checkpoint, and rows after t_end).
   if (extends_finished) std::filesystem::remove(dir / kSummaryFile);
@@ -434,7 +449,7 @@ double CaseRun::State::advance_to(double target) {
       reached(t);
       record_events(t);
     }
-    if (t >= target || g_stop_signal) return t;
+    if (t >= target || stop_signal() != 0) return t;
   }
 }
 
@@ -467,21 +482,21 @@ void CaseRun::State::checkpoint(double t, long k) {
   flush_all();
   nlohmann::json saved = nlohmann::json::object();
   for (const auto& r : recorders) r->save(saved);
-  write_checkpoint(dir, {.t = t,
-                         .output_index = k,
-                         .impulse_at_average = impulse_at_avg,
-                         .state = y,
-                         .stats = total_stats(),
-                         .wall_seconds = total_wall_seconds(),
-                         .case_json = to_json(c),
-                         .git_commit = kGitCommit,
-                         .segments = segments,
-                         .recorders = std::move(saved)});
+  write_checkpoint(options.out_dir, {.t = t,
+                                     .output_index = k,
+                                     .impulse_at_average = impulse_at_average,
+                                     .state = y,
+                                     .stats = total_stats(),
+                                     .wall_seconds = total_wall_seconds(),
+                                     .case_json = to_json(c),
+                                     .git_commit = kGitCommit,
+                                     .segments = segments,
+                                     .recorders = std::move(saved)});
 }
 
 void CaseRun::State::stop_if_requested(double t, long k) {
-  if (!g_stop_signal) return;
-  const int sig = g_stop_signal;
+  const int sig = stop_signal();
+  if (sig == 0) return;
   checkpoint(t, k);
   throw Interrupted{sig, t};
 }
@@ -492,11 +507,11 @@ CaseRun::CaseRun(const Case& c, const RunOptions& options)
 CaseRun::~CaseRun() = default;
 
 long CaseRun::next_output() const {
-  return s_->next;
+  return s_->next_row;
 }
 
 long CaseRun::outputs() const {
-  return s_->outputs;
+  return s_->rows;
 }
 
 std::span<const double> CaseRun::state() const {
@@ -509,29 +524,30 @@ const System& CaseRun::system() const {
 
 void CaseRun::output() {
   State& s = *s_;
-  const long k = s.next;
-  if (k > s.outputs) throw std::logic_error("CaseRun::output: past the last output time");
+  const long k = s.next_row;
+  if (k > s.rows) throw std::logic_error("CaseRun::output: past the last output time");
   try {
-    const double t_out = std::min(s.t_end, static_cast<double>(k) * s.dt);
-    if (std::isnan(s.impulse_at_avg) && s.t_avg <= t_out) {
+    const double t_out = std::min(s.c.run.t_end, static_cast<double>(k) * s.c.output.interval);
+    const double t_avg = s.c.run.average_from;
+    if (std::isnan(s.impulse_at_average) && t_avg <= t_out) {
       // μ averages from t_avg exactly: stop there (interpolated, like every output).
-      const double t = s.advance_to(s.t_avg);
-      if (t < s.t_avg) {
+      const double t = s.advance_to(t_avg);
+      if (t < t_avg) {
         s.check_health(t);
         s.stop_if_requested(t, k - 1);
       }
-      s.impulse_at_avg = s.y[s.impulse];
+      s.impulse_at_average = s.y[s.impulse_index];
     }
     const double t = s.advance_to(t_out);
     s.check_health(t);  // before the row is written: no NaN ever reaches an output
     if (t < t_out) s.stop_if_requested(t, k - 1);
     s.record(t_out);
-    s.next = k + 1;
+    s.next_row = k + 1;
     s.progress.update(t_out, s.total_stats().steps);
     s.stop_if_requested(t_out, k);
-    if (t_out >= s.next_checkpoint && k < s.outputs) {
+    if (t_out >= s.next_checkpoint && k < s.rows) {
       s.checkpoint(t_out, k);
-      s.next_checkpoint += s.every;
+      s.next_checkpoint += s.c.run.checkpoint_every;
     }
     if (seconds_since(s.last_flush) > kFlushSeconds) {
       s.flush_all();
@@ -552,10 +568,11 @@ void CaseRun::output() {
 
 Summary CaseRun::finish() {
   State& s = *s_;
-  if (s.next <= s.outputs) throw std::logic_error("CaseRun::finish: output times are left");
+  if (s.next_row <= s.rows) throw std::logic_error("CaseRun::finish: output times are left");
   const Case& c = s.c;
   const System& system = s.system;
   const auto& y = s.y;
+  const double t_end = c.run.t_end, t_avg = c.run.average_from;
   s.flush_all();
 
   Summary summary;
@@ -563,8 +580,8 @@ Summary CaseRun::finish() {
   summary.contacts = static_cast<long>(system.contacts().size());
   summary.theta = system.coverage();
   summary.F_N = normal_force;
-  summary.mu = (y[s.impulse] - s.impulse_at_avg) / ((s.t_end - s.t_avg) * normal_force);
-  summary.energy_residual = system.energy_residual(s.t_end, y, s.y0);
+  summary.mu = (y[s.impulse_index] - s.impulse_at_average) / ((t_end - t_avg) * normal_force);
+  summary.energy_residual = system.energy_residual(t_end, y, s.y0);
   summary.solver_stats = s.total_stats();
   // A result whose energy audit is off by more than the tolerances can
   // explain is not reported (docs/STABILITY.md: |R| ≈ 0.01–10 × rtol in sound
@@ -580,14 +597,14 @@ Summary CaseRun::finish() {
   const double energy_atol =
       c.solver.step > 0
           ? 0.0
-          : absolute_tolerances(system, c.solver)[system.quadrature_index(System::work_in)];
+          : absolute_tolerances(system, s.solver.params)[system.quadrature_index(System::work_in)];
   if (!(std::abs(summary.energy_residual * work) <= audit_bound * std::abs(work) + energy_atol)) {
     char msg[512];
     std::snprintf(msg, sizeof msg,
                   "energy audit failed at t = %.9g s: relative residual %.3g exceeds the bound "
                   "%.3g ([solver] audit_bound, default 100 x rtol, %g for a fixed step); no "
                   "result is reported. %s",
-                  s.t_end, summary.energy_residual, audit_bound, kFixedStepAuditBound,
+                  t_end, summary.energy_residual, audit_bound, kFixedStepAuditBound,
                   c.solver.step > 0 ? "Use a smaller [solver] step."
                   : c.solver.atol_velocity > 0 || c.solver.atol_displacement > 0
                       ? "Tighten [solver] rtol and the atol_* the case sets (or leave them "
@@ -596,19 +613,16 @@ Summary CaseRun::finish() {
     throw IntegrationError(msg);
   }
   summary.wall_seconds = s.total_wall_seconds();
-  summary.t_end = s.t_end;
-  summary.average_from = s.t_avg;
+  summary.t_end = t_end;
+  summary.average_from = t_avg;
   summary.energy_audit_bound = audit_bound;
   summary.steady_sliding_mu = system.steady_sliding_mu();
-  summary.solver = s.integrator->description();
-  if (c.solver.step == 0) summary.solver.update(describe_tolerances(system, c.solver));
-  if (c.solver.method == Method::automatic) summary.solver["chosen_by"] = s.method.reason;
-  summary.solver["threads"] = system.threads();
+  summary.solver = describe_solver(system, s.solver, *s.integrator);
   summary.git_commit = kGitCommit;
   summary.segments = s.segments;
   summary.sundials_version = SUNDIALS_VERSION;
   summary.case_json = to_json(c);
-  for (const auto& r : s.recorders) r->finish(s.t_end, y, summary);
+  for (const auto& r : s.recorders) r->finish(t_end, y, summary);
   // A fixed step has no rtol to be loose.
   summary.warnings = summary_warnings(summary, c.solver.step > 0 ? 0.0 : c.solver.rtol);
   s.tables->set_attribute("summary", to_json(summary).dump());
@@ -617,10 +631,10 @@ Summary CaseRun::finish() {
   // the two leaves a run a restart finishes. Otherwise it has nothing left to
   // resume.
   if (c.output.final_state)
-    s.checkpoint(s.t_end, s.outputs);
+    s.checkpoint(t_end, s.rows);
   else
-    std::filesystem::remove(s.dir / kCheckpointFile);
-  write_summary(s.dir, summary);
+    std::filesystem::remove(s.options.out_dir / kCheckpointFile);
+  write_summary(s.options.out_dir, summary);
   return summary;
 }
 

@@ -18,19 +18,7 @@ class CvodeIntegrator final : public SteppingIntegrator {
   nlohmann::json description() const override;
 
  private:
-  double current_time() const override;
-  long steps_taken() const override;
-  double last_step_size() const override;
-  void set_max_steps(long steps) override;
-  int evolve(double t_out, double* t, bool one_step) override;
-  void root_info(int* roots) override;
-  void interpolate(double t, N_Vector y) override;
-  bool local_errors(N_Vector error, N_Vector weights) const override;
-  const char* evolve_name() const override;
-  std::string flag_name(int flag) const override;
-
   int max_order_;
-  CvodeMemPtr cvode_mem_;  // after what it refers to, so freed before it
 };
 
 }  // namespace stickslip

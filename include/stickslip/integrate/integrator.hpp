@@ -64,7 +64,10 @@ class Integrator {
   // between samples. Empty without watched contacts.
   virtual std::span<const double> peak_speeds() const = 0;
   virtual SolverStats stats() const = 0;
-  // Method, order, tolerances or fixed step: how the result was obtained.
+  // What only the integrator knows of how the result was obtained: its
+  // method, the package's integrator and its order and stages (or BDF's
+  // largest order). describe_solver (make_integrator.hpp) adds the rest of
+  // summary.json's `solver` object.
   virtual nlohmann::json description() const = 0;
 };
 

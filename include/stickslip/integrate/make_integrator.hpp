@@ -29,9 +29,29 @@ struct MethodChoice {
 };
 MethodChoice choose_method(const System& system, const SolverParams& solver);
 
+// A case's [solver] as it is integrated: what its rules leave open decided
+// once, here, and handed down, so no part of a run applies a rule again.
+struct ResolvedSolver {
+  SolverParams given;     // the case's own: what summary.json says was given
+  SolverParams params;    // a method, never "auto"; atol_* by the rule where not given
+  std::string chosen_by;  // why "auto" chose params.method; empty if the case named it
+};
+ResolvedSolver resolve_solver(const System& system, const SolverParams& given);
+
 // Starts from y0 at t0 (0 for a run; later for a restart or a test).
+std::unique_ptr<Integrator> make_integrator(const System& system, const ResolvedSolver& solver,
+                                            std::span<const double> y0, double t_stop,
+                                            IntegratorOptions options, double t0 = 0.0);
+// The same from the case's own parameters, resolved first.
 std::unique_ptr<Integrator> make_integrator(const System& system, const SolverParams& solver,
                                             std::span<const double> y0, double t_stop,
                                             IntegratorOptions options, double t0 = 0.0);
+
+// summary.json's `solver` object, written here alone: the integrator's own
+// description (its method, package call and table), how its implicit part is
+// solved, the fixed step or the tolerances and where they came from, why
+// "auto" chose the method, and the threads.
+nlohmann::json describe_solver(const System& system, const ResolvedSolver& solver,
+                               const Integrator& integrator);
 
 }  // namespace stickslip

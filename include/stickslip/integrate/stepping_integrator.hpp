@@ -4,10 +4,12 @@
 // "too much work" return) to ask poll() and to hold max_steps over the whole
 // run; with steps recorded it takes one step per call (ONE_STEP mode) and
 // interpolates outputs exactly as normal mode does, so recording steps never
-// changes a run. Each adapter supplies the package's calls; ARKStep and
-// CVODE give their return flags the same values, and their callbacks the
-// same signatures: the callbacks, the stage and linear solvers and what is
-// read off the package's error estimate live here, once for both.
+// changes a run. ARKStep and CVODE give their calls the same signatures, their
+// return flags the same values and their callbacks the same signatures, so
+// each adapter hands this driver a table of its package's calls
+// (PackageCalls, as deal.II's ARKode holds its package's functions) and makes
+// the package's memory; the callbacks, the set-up both share, the stage and
+// linear solvers and what is read off the error estimate live here, once.
 //
 // Output times must not change the solution either. Both packages choose
 // their first step from the first time asked for (h0 ≤ 0.1 (t_out − t0)), so
@@ -30,72 +32,126 @@
 
 namespace stickslip {
 
+// The calls of one SUNDIALS package that the driver makes (ARKStep's or
+// CVODE's), and the prefix of their names for messages ("ARKStep" makes
+// "ARKStepSetUserData").
+struct PackageCalls {
+  const char* prefix;
+  const char* evolve_name;  // ARKStepEvolve, CVode
+  StagePackage stage_package;
+  int (*evolve)(void* mem, double t_out, N_Vector y, double* t, int task);
+  int one_step_task, normal_task;
+  int (*get_current_time)(void* mem, double* t);
+  int (*get_num_steps)(void* mem, long* steps);
+  int (*get_last_step)(void* mem, double* h);
+  int (*set_max_num_steps)(void* mem, long steps);
+  int (*get_root_info)(void* mem, int* roots);
+  int (*get_dky)(void* mem, double t, int derivative, N_Vector dky);
+  int (*get_est_local_errors)(void* mem, N_Vector error);
+  int (*get_err_weights)(void* mem, N_Vector weights);
+  char* (*get_return_flag_name)(long flag);
+  int (*set_err_handler_fn)(void* mem, void (*handler)(int, const char*, const char*, char*, void*),
+                            void* data);
+  int (*set_user_data)(void* mem, void* data);
+  int (*sv_tolerances)(void* mem, double rtol, N_Vector atol);
+  int (*set_stop_time)(void* mem, double t_stop);
+  int (*root_init)(void* mem, int roots, int (*g)(double, N_Vector, double*, void*));
+  int (*set_max_err_test_fails)(void* mem, int fails);
+  int (*set_max_conv_fails)(void* mem, int fails);
+  int (*set_nonlinear_solver)(void* mem, SUNNonlinearSolver solver);
+  void (*free)(void** mem);
+};
+
 class SteppingIntegrator : public Integrator {
  public:
   double advance(double t_out, std::span<double> y) final;
   std::span<const int> roots() const final { return roots_; }
   std::span<const double> peak_speeds() const final { return peaks_.peaks(); }
 
- protected:
-  // The return flags of ARKStepEvolve and CVode (equal in both packages).
+  // The return flags of ARKStepEvolve and CVode (equal in both packages: the
+  // adapters assert it).
   static constexpr int kSuccess = 0, kStopTime = 1, kRoot = 2, kTooMuchWork = -1;
 
-  SteppingIntegrator(const System& system, const SolverParams& solver, IntegratorOptions options,
-                     double t0, double t_stop);
+ protected:
+  // What an adapter uses: it makes the package's memory from y_ in ctx_,
+  // hands it over (adopt_package), initializes it as its package needs, then
+  // sets what both packages set alike and what is its own.
 
-  virtual double current_time() const = 0;  // end of the last step
-  virtual long steps_taken() const = 0;
-  virtual double last_step_size() const = 0;
-  virtual void set_max_steps(long steps) = 0;
-  // One call of the package's evolve (ONE_STEP or NORMAL mode) into y_;
-  // rethrows an exception a callback raised.
-  virtual int evolve(double t_out, double* t, bool one_step) = 0;
-  virtual void root_info(int* roots) = 0;
-  virtual void interpolate(double t, N_Vector y) = 0;  // the dense output at t
-  // The last step's local error estimate and its error weights; false if the
-  // package has none now.
-  virtual bool local_errors(N_Vector error, N_Vector weights) const = 0;
-  // The package's name of its evolve call and of a return flag, for messages.
-  virtual const char* evolve_name() const = 0;
-  virtual std::string flag_name(int flag) const = 0;
+  // Makes y_ (from y0) and everything sized by it or by the watched contacts.
+  SteppingIntegrator(const PackageCalls& calls, const System& system, const SolverParams& solver,
+                     std::span<const double> y0, IntegratorOptions options, double t0,
+                     double t_stop);
 
-  // Call once y_ exists (it sizes the scratch vectors).
-  void init_stepping(std::size_t watched_contacts);
+  // The package's memory: owned from here on, its error handler set first,
+  // so that every later call's message reaches its exception.
+  void adopt_package(void* mem, const char* create_call);
+  // What both packages set alike, after the package's own initialization:
+  // the user data, the tolerances, the stop time and the root functions.
+  void set_up_package();
+  // The implicit part solved exactly, the solver attached to the package:
+  // contact by contact (imex), or the whole lattice (dirk, bdf), which also
+  // allows a slip's onset the step cuts it needs.
+  void solve_per_contact();
+  void solve_lattice();
+  void* mem() const { return mem_.get(); }
 
-  // The callbacks of both packages (user data: this, as a SteppingIntegrator*).
+  // The right-hand sides of both packages (user data: this, as a
+  // SteppingIntegrator*).
   static int full_rhs(double t, N_Vector y, N_Vector ydot, void* self);
   static int explicit_rhs(double t, N_Vector y, N_Vector ydot, void* self);  // imex's lattice
   static int implicit_rhs(double t, N_Vector y, N_Vector ydot, void* self);  // imex's contacts
-  static int root_fn(double t, N_Vector y, double* g, void* self);
-  void* user_data() { return static_cast<SteppingIntegrator*>(this); }
-
-  // The solvers of the implicit part (StageSolve): made here, attached to the
-  // package by the adapter.
-  void make_per_contact_stages(StagePackage package);
-  void make_lattice_stages(StagePackage package);
-  // Weighted RMS norm of the last step's local error estimate; NaN if none.
-  double local_error_norm();
-  [[noreturn]] void throw_failure(int flag, double t);
   // check() for the calls on this integrator's package: the IntegrationError
   // names the call, the flag and the message SUNDIALS reported.
   void check(int flag, const char* call);
   // The stage solver's part of the statistics (exact stage solves only).
   void add_stage_stats(SolverStats& s) const;
-  // summary.json's linear solver, and the fixed step or the tolerances.
-  void describe_solve(nlohmann::json& d) const;
-  // Rethrows an exception a callback stored (after each package call).
-  void rethrow_pending();
 
-  const System& system_;
   SolverParams solver_;
   const MethodInfo& method_;
   const StageSolve stages_;  // how the implicit part is solved
-  IntegratorOptions options_;
-  // Declared before every SUNDIALS object of the hierarchy (these below and
-  // the adapters' memory, destroyed with the derived class, before this
-  // base's members), so the context goes after everything made in it.
+  // Declared before every SUNDIALS object (the package's memory is the last
+  // member, so freed first), so the context goes after everything made in it.
   SunContext ctx_;
   NVectorPtr y_;  // the state handed to and from the package
+
+ private:
+  struct PackageFree {
+    void (*free)(void**);
+    void operator()(void* mem) const { free(&mem); }
+  };
+
+  static int root_fn(double t, N_Vector y, double* g, void* self);
+  // check() for a call named by its suffix after the package's prefix
+  // ("SetUserData").
+  void check_call(int flag, const char* call_suffix);
+  // Rethrows an exception a callback stored (after each package call).
+  void rethrow_pending();
+
+  double current_time() const;  // end of the last step
+  long steps_taken() const;
+  double last_step_size() const;
+  // One call of the package's evolve (ONE_STEP or NORMAL mode) into y_;
+  // rethrows an exception a callback raised.
+  int evolve(double t_out, double* t, bool one_step);
+  void root_info(int* roots);
+  void interpolate(double t, N_Vector y);  // the dense output at t
+  // The last step's local error estimate and its error weights; false if the
+  // package has none now.
+  bool local_errors(N_Vector error, N_Vector weights) const;
+  std::string flag_name(int flag) const;
+  // Weighted RMS norm of the last step's local error estimate; NaN if none.
+  double local_error_norm();
+  [[noreturn]] void throw_failure(int flag, double t);
+
+  double advance_normal(double t_out, std::span<double> y);
+  double advance_stepwise(double t_out, std::span<double> y);
+  double finish(double t, std::span<double> y);
+  void throw_if_out_of_steps();
+  void record_step();
+
+  const PackageCalls& calls_;
+  const System& system_;
+  IntegratorOptions options_;
   NVectorPtr atol_;
   std::vector<int> roots_;
   SpeedPeaks peaks_;  // sampled in root_fn
@@ -104,14 +160,6 @@ class SteppingIntegrator : public Integrator {
   NonlinearSolverPtr stage_solver_;
   std::exception_ptr pending_;
   SolverMessage message_;  // the error handler's user data (record_solver_message)
-
- private:
-  double advance_normal(double t_out, std::span<double> y);
-  double advance_stepwise(double t_out, std::span<double> y);
-  double finish(double t, std::span<double> y);
-  void throw_if_out_of_steps();
-  void record_step();
-
   const long poll_steps_;  // steps between polls (case/methods.hpp)
   NVectorPtr scratch_error_, scratch_weights_;
   double t_stop_;       // the stop time: what ONE_STEP calls aim at
@@ -121,6 +169,9 @@ class SteppingIntegrator : public Integrator {
   double pending_t_ = 0.0;
   std::vector<int> pending_roots_;
   NVectorPtr pending_y_;
+  // Last, so freed first: it refers to the vectors, the solvers and the
+  // message above.
+  std::unique_ptr<void, PackageFree> mem_;
 };
 
 }  // namespace stickslip

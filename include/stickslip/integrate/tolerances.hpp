@@ -33,13 +33,17 @@ struct ToleranceScales {
 ToleranceScales tolerance_scales(const System& system);
 
 // The solver parameters with atol_displacement and atol_velocity filled in
-// by the rule where the case left them 0 (unset).
+// by the rule where the case left them 0 (unset). A run resolves them once
+// (resolve_solver, make_integrator.hpp) and hands the result down.
 SolverParams with_absolute_tolerances(const System& system, SolverParams solver);
 
-// Absolute tolerance of every state component (System's layout).
-std::vector<double> absolute_tolerances(const System& system, const SolverParams& solver);
+// Absolute tolerance of every state component (System's layout), spread from
+// resolved parameters (with_absolute_tolerances): this applies no rule.
+std::vector<double> absolute_tolerances(const System& system, const SolverParams& resolved);
 
-// For summary.json: rtol, both absolute tolerances, and where each came from.
-nlohmann::json describe_tolerances(const System& system, const SolverParams& solver);
+// For summary.json: rtol, both absolute tolerances (`resolved`'s), the
+// scales, and where each came from (given by the case, `given`, or the rule).
+nlohmann::json describe_tolerances(const System& system, const SolverParams& given,
+                                   const SolverParams& resolved);
 
 }  // namespace stickslip

@@ -29,6 +29,11 @@ struct RunOptions {
   // time, then twice a second at most, whether or not stderr is a terminal
   // (the Python module's progress bar in a notebook).
   std::function<void(double t, long steps)> on_progress{};
+  // Asked between output times (every poll interval of steps) and at each:
+  // the signal that asks the run to stop, 0 while none has. A stopped run
+  // checkpoints and throws Interrupted. Unset: SIGINT or SIGTERM, as caught
+  // by the handlers below.
+  std::function<int()> stop_signal{};
 };
 
 // A run started afresh (no restart, no overwrite) in an output directory that
