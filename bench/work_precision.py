@@ -38,7 +38,7 @@ method `auto` chooses for it and the default rtol (from a one-step probe run
 with the case's own solver settings), for plots/work_precision.py.
 
 Writes DIR/work_precision.csv, one row per run: method, setting, wall time
-(median of repeats), peak memory, steps, rhs evaluations, energy residual, and
+(median of repeats), CPU time (user + system), peak memory, steps, rhs evaluations, energy residual, and
 the errors from `stickslip compare`: μ relative error, largest relative L2
 trace error, largest event-time error, unmatched events; and the final-state
 error. Plot with plots/work_precision.py DIR.
@@ -62,9 +62,10 @@ from pathlib import Path
 def run(exe, case, out, sets, repeats, timeout):
     """Runs the case up to `repeats` times into `out`.
 
-    Returns a dict: wall (median s), peak_kb, status (finished, failed,
-    timeout), message."""
-    walls, peak = [], 0
+    Returns a dict: wall (median s), cpu (user + system s of that median
+    run; on a busy machine it says how much of the wall time was waiting),
+    peak_kb, status (finished, failed, timeout), message."""
+    walls, cpus, peak = [], [], 0
     for _ in range(repeats):
         cmd = [exe, "run", str(case), "--out", str(out), "--overwrite", "--quiet"]
         for s in sets:
@@ -88,19 +89,21 @@ def run(exe, case, out, sets, repeats, timeout):
                     proc.kill()  # it did not answer its stop request
                 time.sleep(0.05)
             walls.append(time.perf_counter() - start)
+            cpus.append(usage.ru_utime + usage.ru_stime)
             peak = max(peak, usage.ru_maxrss)
             stderr.seek(0)
             err = stderr.read().strip()
         if timed_out:
             # "interrupted at t = ... s; ..." says how far it got.
             m = re.search(r"interrupted at t = ([0-9.eE+-]+) s", err)
-            return {"wall": walls[-1], "peak_kb": peak, "status": "timeout",
+            return {"wall": walls[-1], "cpu": cpus[-1], "peak_kb": peak, "status": "timeout",
                     "t_reached": float(m.group(1)) if m else 0.0,
                     "message": f"stopped after {timeout:g} s"}
         if os.waitstatus_to_exitcode(status) != 0:
-            return {"wall": statistics.median(walls), "peak_kb": peak, "status": "failed",
+            return {"wall": statistics.median(walls), "cpu": cpus[-1], "peak_kb": peak, "status": "failed",
                     "message": err.splitlines()[-1] if err else "failed"}
-    return {"wall": statistics.median(walls), "peak_kb": peak, "status": "finished", "message": ""}
+    median = sorted(range(len(walls)), key=lambda i: walls[i])[len(walls) // 2]
+    return {"wall": statistics.median(walls), "cpu": cpus[median], "peak_kb": peak, "status": "finished", "message": ""}
 
 
 def compare(exe, ref, out):
@@ -271,6 +274,7 @@ def main() -> int:
         timeout = a.rk4_timeout if method == "rk4" else a.timeout
         r = run(a.exe, a.case, d, a.sets + sets + ["solver.audit_bound=1e9"], a.repeats, timeout)
         row = {"method": method, "setting": setting, "wall_seconds": f"{r['wall']:.3f}",
+               "cpu_seconds": f"{r['cpu']:.3f}",
                "peak_rss_kb": r["peak_kb"], "status": r["status"], "message": r["message"]}
         if r["status"] == "finished":
             s = json.loads((d / "summary.json").read_text())
@@ -299,7 +303,7 @@ def main() -> int:
     return 0
 
 
-FIELDS = ["method", "setting", "status", "wall_seconds", "peak_rss_kb", "steps", "rhs_explicit",
+FIELDS = ["method", "setting", "status", "wall_seconds", "cpu_seconds", "peak_rss_kb", "steps", "rhs_explicit",
           "rhs_implicit", "energy_residual", "mu", "mu_error", "trace_error", "event_error",
           "unmatched_events", "state_error", "state_wall_seconds", "t_reached",
           "extrapolated_wall_seconds", "message"]

@@ -195,12 +195,15 @@ def main() -> int:
                 ax.axhline(fl, color="0.3", ls="--", lw=1,
                            label=f"chaos floor (drive speed × (1 + {floor['setting'].split('=')[1]}))")
                 ax.set_ylim(lo, max(hi, fl * 3))
+                ax.annotate("chaos floor", (0.99, fl), xycoords=("axes fraction", "data"), ha="right",
+                            va="bottom", fontsize=7, color="0.3")
             ax.set_xlabel("wall time (s)")
             ax.set_ylabel(label)
             ax.set_title(title, fontsize=8)
             ax.grid(alpha=0.3, which="both")
             if ax.get_legend_handles_labels()[0]:
-                ax.legend(fontsize=7)
+                if ax is row[0] or not any(a.get_legend() for a in row):
+                    ax.legend(fontsize=7)
             else:
                 ax.text(0.5, 0.5, "not measured for this case", ha="center", va="center",
                         transform=ax.transAxes, fontsize=8, color="gray")
