@@ -4,7 +4,9 @@ panels per case (output directory), one panel per error measure (μ, velocity
 traces, event times, final state; a measure no case has is left out), one
 curve per method. A "floor" row (the driver's --floor: the reference against
 itself with the drive speed changed by 1e-12) is drawn as a labelled line
-with a grey band below it: errors in the band mean nothing.
+with a grey band below it: errors in the band mean nothing. Runs stopped at
+the driver's timeout are hollow markers along a panel's top, at the wall time
+their pace extrapolates to.
 
 Also writes, for each case, DIR/best_times.md: the least wall time at which
 each method reaches each error level of μ, the ratios of the default to the
@@ -186,6 +188,25 @@ def main() -> int:
                           color=COLORS.get(method, "k"), label=method)
                 for w, e, s in pts:
                     ax.annotate(s.split("=")[1], (w, e), fontsize=6, xytext=(3, 3), textcoords="offset points")
+            # Runs stopped at the timeout: hollow markers along the top, at
+            # the wall time their pace extrapolates to.
+            if ax.get_legend_handles_labels()[0]:
+                top = matplotlib.transforms.blended_transform_factory(ax.transData, ax.transAxes)
+                drawn = set(ax.get_legend_handles_labels()[1])
+                stopped = sorted({r["method"] for r in rows if r["status"] == "timeout"
+                                  and number(r.get("extrapolated_wall_seconds"))})
+                for m in stopped:
+                    ax.plot([], [], ls="none", marker=MARKERS.get(m, "o"), mfc="none", color=COLORS.get(m, "k"),
+                            label=f"{m} stopped (top: time its pace extrapolates to)" if m not in drawn
+                            else None)
+                for r in rows:
+                    x = number(r.get("extrapolated_wall_seconds"))
+                    if r["status"] == "timeout" and x:
+                        ax.plot([x], [0.96], transform=top, marker=MARKERS.get(r["method"], "o"), ms=6,
+                                mfc="none", color=COLORS.get(r["method"], "k"), clip_on=False)
+                        ax.annotate(r["setting"].split("=")[1], (x, 0.96), xycoords=top, fontsize=6,
+                                    xytext=(0, -6), textcoords="offset points", rotation=90, ha="center",
+                                    va="top", color=COLORS.get(r["method"], "k"))
             if floor is not None and number(floor.get(key)) and abs(float(floor[key])) > 0 \
                     and ax.get_legend_handles_labels()[0]:
                 fl = abs(float(floor[key]))
@@ -207,6 +228,8 @@ def main() -> int:
             else:
                 ax.text(0.5, 0.5, "not measured for this case", ha="center", va="center",
                         transform=ax.transAxes, fontsize=8, color="gray")
+                ax.set_xticks([])
+                ax.set_yticks([])
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     fig.savefig(out.with_suffix(".pdf"))
