@@ -215,7 +215,7 @@ def main() -> int:
                 ax.axhspan(lo, fl, color="0.5", alpha=0.18, lw=0)
                 ax.axhline(fl, color="0.3", ls="--", lw=1,
                            label=f"chaos floor (drive speed × (1 + {floor['setting'].split('=')[1]}))")
-                ax.set_ylim(lo, max(hi, fl * 3))
+                ax.set_ylim(lo, max(hi * 2, fl * 3))
                 ax.annotate("chaos floor", (0.99, fl), xycoords=("axes fraction", "data"), ha="right",
                             va="bottom", fontsize=7, color="0.3")
             ax.set_xlabel("wall time (s)")
