@@ -382,22 +382,25 @@ void LatticeStageSolver::factorize_near_field() {
   ++factorizations_;
 }
 
+// GMRES's operator, matrix free: v ↦ J v = v + H (I − E) v, one FFT
+// coupling product (apply_jacobian).
+struct LatticeStageSolver::JacobianProduct {
+  LatticeStageSolver* solver;
+  Eigen::Index rows() const { return solver->step_.size(); }
+  Eigen::Index cols() const { return rows(); }
+  Eigen::VectorXd operator*(const Eigen::VectorXd& v) const {
+    Eigen::VectorXd out(v.size());
+    solver->apply_jacobian(v, out);
+    return out;
+  }
+};
+
 // Newton's step J δ = −F(β), by GMRES preconditioned with the kept LU (built
 // at an earlier β, γ or stage). The LU's own step is modified Newton's; the
 // Krylov iterations correct it for how far J has moved since, each for one
 // coupling product and one triangular solve instead of an LU. Returns
 // whether the step reached `relative` (of the preconditioned residual).
 bool LatticeStageSolver::krylov_step(double relative, Eigen::Index max_iterations) {
-  struct Operator {
-    LatticeStageSolver* solver;
-    Eigen::Index rows() const { return solver->step_.size(); }
-    Eigen::Index cols() const { return rows(); }
-    Eigen::VectorXd operator*(const Eigen::VectorXd& v) const {
-      Eigen::VectorXd out(v.size());
-      solver->apply_jacobian(v, out);
-      return out;
-    }
-  };
   struct Preconditioner {
     const LatticeStageSolver* solver;
     Eigen::VectorXd solve(const Eigen::VectorXd& r) const { return solver->solve_with_lu(r); }
@@ -406,7 +409,7 @@ bool LatticeStageSolver::krylov_step(double relative, Eigen::Index max_iteration
   step_.setZero();
   Eigen::Index iterations = max_iterations;
   double error = relative;
-  Eigen::internal::gmres(Operator{this}, rhs, step_, Preconditioner{this}, iterations,
+  Eigen::internal::gmres(JacobianProduct{this}, rhs, step_, Preconditioner{this}, iterations,
                          std::min<Eigen::Index>(max_iterations, kGmresRestart), error);
   krylov_iterations_ += iterations;
   return error <= relative;
@@ -417,16 +420,6 @@ bool LatticeStageSolver::krylov_step(double relative, Eigen::Index max_iteration
 // and rebuilt at this β when GMRES needs more than kNearFieldRebuild times the
 // iterations it took just after the last build, or does not converge.
 void LatticeStageSolver::near_field_step(double norm) {
-  struct Operator {
-    LatticeStageSolver* solver;
-    Eigen::Index rows() const { return solver->step_.size(); }
-    Eigen::Index cols() const { return rows(); }
-    Eigen::VectorXd operator*(const Eigen::VectorXd& v) const {
-      Eigen::VectorXd out(v.size());
-      solver->apply_jacobian(v, out);
-      return out;
-    }
-  };
   struct Preconditioner {
     const LatticeStageSolver* solver;
     Eigen::VectorXd solve(const Eigen::VectorXd& r) const { return solver->near_lu_.solve(r); }
@@ -441,7 +434,7 @@ void LatticeStageSolver::near_field_step(double norm) {
     step_.setZero();
     Eigen::Index iterations = kMaxMatrixFreeKrylov;
     double error = relative;
-    Eigen::internal::gmres(Operator{this}, rhs, step_, Preconditioner{this}, iterations,
+    Eigen::internal::gmres(JacobianProduct{this}, rhs, step_, Preconditioner{this}, iterations,
                            kGmresRestart, error);
     krylov_iterations_ += iterations;
     const bool converged = error <= relative;

@@ -93,6 +93,7 @@ class LatticeStageSolver {
   void apply_coupling(const Eigen::VectorXd& x, Eigen::VectorXd& out);
   Eigen::VectorXd solve_with_lu(const Eigen::VectorXd& r) const;
   void apply_jacobian(const Eigen::VectorXd& v, Eigen::VectorXd& out);
+  struct JacobianProduct;  // GMRES's operator over apply_jacobian (.cpp)
   bool krylov_step(double relative, Eigen::Index max_iterations);
   // Site i's offset from site j, wrapped, as LatticeSolver::green_wrapped
   // takes it (sites lie in [0, Nx) × [0, Ny): one conditional add, no division).
