@@ -516,3 +516,50 @@ TEST_CASE(
   CHECK(matrix_free.krylov_iterations() > 0);
   CHECK(matrix_free.contact_factorizations() > 0);  // of the near field
 }
+
+TEST_CASE(
+    "GMRES's Newton steps converge in Newton's own weights where stuck contacts weigh thousands "
+    "of times the slipping ones",
+    "[lattice_solver]") {
+  // A block slip's stages on a creeping lattice: first every contact
+  // slipping at ~0.1 m/s (the LU is built there), then two thirds of them
+  // held at ~1 µm/s by their force beside the slipping rest, weighted as the
+  // integrator weighs them at rtol 1e-5 with atol 3e-10 m/s (rtol × 0.1 ×
+  // v*): a stuck contact's weight ~3e9 s/m, a slipping one's ~1e6. The LU
+  // kept from the first stage is a poor Newton matrix for the stuck ones, so
+  // the later stages take Krylov steps. Each stage must converge, and be
+  // exact. (This state converges with GMRES unweighted too; the 15×15×10
+  // multirate run that stalled on it is in docs/PERFORMANCE.md.)
+  const System s = make_system(12, 10, 3, forty_contacts());
+  LatticeStageSolver solver(s, std::numeric_limits<double>::infinity());
+  // A creeping lattice: displacements ~1 nm, velocities ~1 µm/s.
+  std::vector<double> base = random_state(s, 5);
+  for (std::int64_t i = 0; i < 6 * s.num_nodes(); ++i) base[static_cast<std::size_t>(i)] *= 1e-3;
+  const double stuck[2] = {1e-6, -2e-8}, slipping[2] = {1e-1, -2e-2};
+  const double gammas[] = {1e-6, 3e-9, 5e-9, 8e-9, 1.2e-8, 2e-8, 1e-8, 4e-9};
+  for (std::size_t stage = 0; stage < std::size(gammas); ++stage) {
+    std::vector<double> b = base, start = base;
+    for (std::size_t k = 0; k < s.sites().size(); ++k) {
+      const double scale = 1.0 + 0.05 * static_cast<double>((k + stage) % 5);
+      const double* speed = stage == 0 || k % 3 == 2 ? slipping : stuck;
+      const std::array<double, 2> v{scale * speed[0], scale * speed[1]};
+      // b such that the contact alone would end its stage at v: held by its
+      // force, a stuck contact's b is far larger than its speed.
+      const auto a = s.site_acceleration(k, v);
+      b[s.w_index(s.sites()[k].node, 0)] = v[0] - gammas[stage] * a[0];
+      b[s.w_index(s.sites()[k].node, 1)] = v[1] - gammas[stage] * a[1];
+      start[s.w_index(s.sites()[k].node, 0)] = v[0];
+      start[s.w_index(s.sites()[k].node, 1)] = v[1];
+    }
+    std::vector<double> weights(b.size());
+    for (std::size_t i = 0; i < b.size(); ++i)
+      weights[i] = 1.0 / (1e-5 * std::abs(start[i]) +
+                          (static_cast<std::int64_t>(i) < 3 * s.num_nodes() ? 1e-13 : 3e-10));
+    std::vector<double> z = b;
+    const double t = 1e-4;
+    INFO("stage " << stage << ", gamma " << gammas[stage]);
+    REQUIRE_NOTHROW(solver.solve(t, gammas[stage], b, weights, z));
+    CHECK(direct_newton_change(s, t, gammas[stage], b, z) < 1e-10);
+  }
+  CHECK(solver.krylov_iterations() > 0);  // the Krylov steps were exercised
+}

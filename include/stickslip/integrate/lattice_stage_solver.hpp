@@ -94,6 +94,9 @@ class LatticeStageSolver {
   Eigen::VectorXd solve_with_lu(const Eigen::VectorXd& r) const;
   void apply_jacobian(const Eigen::VectorXd& v, Eigen::VectorXd& out);
   struct JacobianProduct;  // GMRES's operator over apply_jacobian (.cpp)
+  template <class Solve>
+  Eigen::Index weighted_gmres(const Solve& approximate, double relative,
+                              Eigen::Index max_iterations, bool& converged);
   bool krylov_step(double relative, Eigen::Index max_iterations);
   // Site i's offset from site j, wrapped, as LatticeSolver::green_wrapped
   // takes it (sites lie in [0, Nx) × [0, Ny): one conditional add, no division).
@@ -134,6 +137,7 @@ class LatticeStageSolver {
   std::vector<double> zero_, acc_, correction_;
   Eigen::VectorXd free_speed_, beta_, sigma_, residual_, trial_, step_, product_, trial_force_,
       krylov_force_;
+  Eigen::VectorXd newton_weight_;  // the sites' speeds' error weights (solve_contacts)
   // The contacts' Newton matrix, factorized in place (for a γ and β since
   // passed); empty when it is to be rebuilt. In single precision: Newton's
   // residual is exact, so the matrix sets only how fast the iteration
