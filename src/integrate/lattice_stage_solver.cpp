@@ -179,6 +179,27 @@ long LatticeStageSolver::solve(double t, double gamma, std::span<const double> p
   return iterations;
 }
 
+// Block (i, j) of ∂F/∂β = I + H − H E, row-major: δ_ij I + H_ij (I − E_j),
+// H_ij = G_ij/ḡ − δ_ij I, E_j = ∂Σ_j/∂β_j (`e`). The dense LU and the near
+// field's both fill from it.
+std::array<double, 4> LatticeStageSolver::newton_block(std::size_t i, std::size_t j,
+                                                       const std::array<double, 4>& e) const {
+  const std::int64_t offset = site_offset(i, j);
+  std::array<double, 4> block{};
+  for (int a = 0; a < 2; ++a) {
+    const double diagonal = i == j ? 1.0 : 0.0;
+    const double h0 =
+        lattice_.green_wrapped(offset, a, 0) / self_green_ - (a == 0 ? diagonal : 0.0);
+    const double h1 =
+        lattice_.green_wrapped(offset, a, 1) / self_green_ - (a == 1 ? diagonal : 0.0);
+    block[static_cast<std::size_t>(2 * a)] =
+        h0 - (h0 * e[0] + h1 * e[2]) + (a == 0 ? diagonal : 0.0);
+    block[static_cast<std::size_t>(2 * a + 1)] =
+        h1 - (h0 * e[1] + h1 * e[3]) + (a == 1 ? diagonal : 0.0);
+  }
+  return block;
+}
+
 // ∂F/∂β = I + H − H E at the β whose ∂Σ/∂β are in stages_, factorized in
 // place in single precision (why: the header; 0.8 GB at 7 171 contacts). H's
 // entries are the Green's function's, looked up (offsets wrapped without
@@ -193,18 +214,11 @@ void LatticeStageSolver::factorize_jacobian() {
     const auto& e = stages_[j].ds_db;
     const auto c0 = static_cast<Eigen::Index>(2 * j), c1 = c0 + 1;
     for (std::size_t i = 0; i < sites_; ++i) {
-      const std::int64_t offset = site_offset(i, j);
+      const auto block = newton_block(i, j, e);
       for (int a = 0; a < 2; ++a) {
-        const double diagonal = i == j ? 1.0 : 0.0;
-        const double h0 =
-            lattice_.green_wrapped(offset, a, 0) / self_green_ - (a == 0 ? diagonal : 0.0);
-        const double h1 =
-            lattice_.green_wrapped(offset, a, 1) / self_green_ - (a == 1 ? diagonal : 0.0);
         const auto r = static_cast<Eigen::Index>(2 * i + a);
-        jacobian(r, c0) =
-            static_cast<float>(h0 - (h0 * e[0] + h1 * e[2]) + (a == 0 ? diagonal : 0.0));
-        jacobian(r, c1) =
-            static_cast<float>(h1 - (h0 * e[1] + h1 * e[3]) + (a == 1 ? diagonal : 0.0));
+        jacobian(r, c0) = static_cast<float>(block[2 * a]);
+        jacobian(r, c1) = static_cast<float>(block[2 * a + 1]);
       }
     }
   };
@@ -361,18 +375,12 @@ void LatticeStageSolver::factorize_near_field() {
   for (std::size_t i = 0; i < sites_; ++i)
     for (std::size_t k = near_start_[i]; k < near_start_[i + 1]; ++k) {
       const std::size_t j = near_site_[k];
-      const auto& e = stages_[j].ds_db;
-      const std::int64_t offset = site_offset(i, j);
+      const auto block = newton_block(i, j, stages_[j].ds_db);
+      const auto c0 = static_cast<Eigen::Index>(2 * j), c1 = c0 + 1;
       for (int a = 0; a < 2; ++a) {
-        const double diagonal = i == j ? 1.0 : 0.0;
-        const double h0 =
-            lattice_.green_wrapped(offset, a, 0) / self_green_ - (a == 0 ? diagonal : 0.0);
-        const double h1 =
-            lattice_.green_wrapped(offset, a, 1) / self_green_ - (a == 1 ? diagonal : 0.0);
         const auto r = static_cast<Eigen::Index>(2 * i + a);
-        const auto c0 = static_cast<Eigen::Index>(2 * j), c1 = c0 + 1;
-        near_matrix_.coeffRef(r, c0) = h0 - (h0 * e[0] + h1 * e[2]) + (a == 0 ? diagonal : 0.0);
-        near_matrix_.coeffRef(r, c1) = h1 - (h0 * e[1] + h1 * e[3]) + (a == 1 ? diagonal : 0.0);
+        near_matrix_.coeffRef(r, c0) = block[2 * a];
+        near_matrix_.coeffRef(r, c1) = block[2 * a + 1];
       }
     }
   near_lu_.factorize(near_matrix_);

@@ -13,6 +13,7 @@
 
 #include <Eigen/Dense>
 #include <Eigen/SparseLU>
+#include <array>
 #include <optional>
 #include <span>
 #include <vector>
@@ -106,6 +107,8 @@ class LatticeStageSolver {
     if (dy < 0) dy += ny_;
     return dx + std::int64_t{nx_} * dy;
   }
+  std::array<double, 4> newton_block(std::size_t i, std::size_t j,
+                                     const std::array<double, 4>& e) const;
   void find_near_field();
   void factorize_near_field();
   void near_field_step(double norm);
