@@ -80,6 +80,7 @@ const std::map<std::string, Given>& given_values() {
       {"solver.atol_velocity", {"1e-9"}},
       {"solver.threads", {"2"}},
       {"solver.max_steps", {"1000"}},
+      {"solver.multirate_min_fast", {"8"}},
       {"solver.audit_bound", {"1e-3"}},
       {"output.dir", {"\"elsewhere\""}},
       {"output.interval", {"2e-6"}},

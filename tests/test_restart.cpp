@@ -184,6 +184,7 @@ TEST_CASE("a multirate run stopped by SIGTERM and restarted agrees with an unint
   // the stop to land mid-run.
   const std::string run = exe +
                           " run two.toml --set 'solver.method=\"multirate\"'"
+                          " --set solver.multirate_min_fast=1"
                           " --set solver.atol_velocity=4.75e-12"
                           " --set solver.atol_displacement=1.95e-14 --quiet ";
   const std::string in_box = "cd " + dir + " && ";

@@ -455,6 +455,10 @@ const std::vector<Entry>& schema() {
        "up, one below; results do not depend on it"},
       {"solver", "max_steps", integer(&Case::solver, &SolverParams::max_steps, 1), "",
        "most steps over the whole run"},
+      {"solver", "multirate_min_fast", integer(&Case::solver, &SolverParams::multirate_min_fast, 1),
+       "",
+       "method = \"multirate\": the fewest fast contacts it steps on their own sub-steps; with "
+       "fewer, the whole step follows them (single rate)"},
       {"solver", "audit_bound", real(&Case::solver, &SolverParams::audit_bound, kPositive), "",
        "largest accepted |energy-audit residual| at t_end, beyond which the run fails; unset: 100 "
        "× rtol, or 1e-4 for a fixed step"},

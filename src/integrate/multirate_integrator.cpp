@@ -113,6 +113,10 @@ void MultirateIntegrator::begin_step_derivative() {
 // the node's whole acceleration at the step's start: an onset, an arrest),
 // or an attempt at this step, or at one of the last kFastHold steps, found
 // its own error above 1 or refused its stage for γλ > 1 (forced_fast_).
+// Fewer than multirate_min_fast such contacts and the step is single rate:
+// on 15x15x10 (theta05, 112 contacts) the whole run took 96.0 s with every
+// fast contact stepped apart, 79.0 / 77.9 / 70.0 / 60.9 / 57.2 s from 4 / 8 /
+// 16 / 32 / 64 on, and dirk 70.3 s (docs/PERFORMANCE.md).
 std::vector<std::size_t> MultirateIntegrator::fast_contacts(double H) const {
   std::vector<std::size_t> fast;
   for (std::size_t j = 0; j < contact_a_.size(); ++j) {
@@ -127,6 +131,7 @@ std::vector<std::size_t> MultirateIntegrator::fast_contacts(double H) const {
     }
     if (is_fast) fast.push_back(j);
   }
+  if (fast.size() < static_cast<std::size_t>(solver_.multirate_min_fast)) fast.clear();
   return fast;
 }
 
@@ -300,7 +305,7 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
                        stages_.refused_sites().size());
         if (!stages_.refused_sites().empty()) {  // those contacts turn fast
           for (const std::size_t j : stages_.refused_sites()) forced_fast_[j] = kFastHold;
-          return Attempt::retry;
+          if (!fast_contacts(H).empty()) return Attempt::retry;
         }
         ++stats_.convergence_failures;
         return Attempt::shrink;
@@ -328,7 +333,11 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
     }
     if (turned) {
       if (debug()) std::fprintf(stderr, "t=%.9e H=%.3e fast=%zu turned\n", t_, H, nf);
-      return Attempt::retry;
+      if (!fast_contacts(H).empty()) return Attempt::retry;
+      // Too few to step apart: the step is single rate, and its contacts
+      // are held to the coarse norm like dirk's. Held to 1 each, they made
+      // a third of the attempts fail (15x15, theta 0.04: 14 083 of 42 546,
+      // 69.5 s against 39.7 s).
     }
     for (std::size_t q = 0; q < nf; ++q) {  // their coarse u, w are not the answer
       const auto ux = u_of(system_, st.fast[q]), wx = w_of(system_, st.fast[q]);
@@ -607,13 +616,16 @@ double MultirateIntegrator::advance_to(double t_out, std::span<double> y) {
     if (stats_.steps >= solver_.max_steps)
       throw IntegrationError(describe_out_of_steps(t_, stats_.steps, stats_.last_step));
     const double exponent = -1.0 / (table_.embedded_order + 1);
+    // A step that failed here does not grow 5x again at once: after a stage
+    // that did not converge the regrown step failed again (docs/PERFORMANCE.md).
+    bool failed = false;
     for (;;) {
       const double H = std::min(h_, t_stop_ - t_);
       ++stats_.step_attempts;
       const Attempt a = attempt(H);
       if (a == Attempt::accepted) {
         const double e = std::max(trial_->error, 1e-10);
-        const double growth = std::clamp(0.9 * std::pow(e, exponent), 0.2, 5.0);
+        const double growth = std::clamp(0.9 * std::pow(e, exponent), 0.2, failed ? 1.0 : 5.0);
         // A step cut short to land on t_stop does not shrink the next.
         h_ = H < h_ ? std::max(h_, H * growth) : H * growth;
         accept(H);
@@ -621,6 +633,7 @@ double MultirateIntegrator::advance_to(double t_out, std::span<double> y) {
       }
       if (a == Attempt::retry) continue;  // the same H with more contacts fast
       ++stats_.error_test_failures;
+      failed = true;
       const double e = trial_->error;
       h_ = H *
            (std::isfinite(e) && e > 1.0 ? std::clamp(0.9 * std::pow(e, exponent), 0.1, 0.9) : 0.25);
@@ -646,6 +659,7 @@ nlohmann::json MultirateIntegrator::description() const {
           {"order", table_.order},
           {"stages", table_.stages},
           {"coupling_tolerance", kCouplingTolerance},
+          {"min_fast_contacts", solver_.multirate_min_fast},
           {"coupling_iterations", kCouplingIterations}};
 }
 

@@ -12,6 +12,9 @@
 // level. One coarse step:
 //
 //  1. Partition (fast_contacts): which contacts the coarse step cannot resolve.
+//     Fewer than [solver] multirate_min_fast of them and there are none: the
+//     step is single rate, as dirk's (a lone slip costs less so: its stand-in
+//     pinned the coarse step to its miss, with three coupling passes a step).
 //  2. Each fast contact's sub-steps over [t, t + H] under Φ(t), the rest of
 //     the lattice's acceleration on its node: first Φ's Taylor line at t, then
 //     the polynomial through the coarse stages, a fast neighbour's part read
@@ -30,8 +33,11 @@
 //     the fast contacts' in-plane u and w (weighted RMS ≤ 1); each slow
 //     contact's own in-plane velocity error ≤ 1 (a contact that fails it, or
 //     whose stage is refused for γλ > 1, turns fast for this step and the
-//     next kFastHold − 1, and the step is retried at the same H); each fast
-//     contact's sub-steps ≤ 1 on their own; the coupling and the miss ≤ 1.
+//     next kFastHold − 1, and the step is retried at the same H — unless
+//     that leaves too few fast contacts: then the coarse norm alone holds,
+//     or the refused stage shrinks the step); each fast contact's sub-steps
+//     ≤ 1 on their own; the coupling and the miss ≤ 1. A step after a failed
+//     attempt does not grow.
 //  6. The fast contacts' in-plane u, w at t + H are their sub-steps'; their
 //     dissipation (integrated on the sub-steps) joins the quadrature.
 //
