@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "stickslip/analysis/compare.hpp"
+#include "stickslip/integrate/lattice_stage_solver.hpp"
 #include "stickslip/integrate/make_integrator.hpp"
 #include "stickslip/model/system.hpp"
 #include "stickslip/run/run.hpp"
@@ -490,22 +491,48 @@ TEST_CASE(
   CHECK_FALSE(erk.at("solver").contains("chosen_by"));
 }
 
-TEST_CASE("method = auto keeps dirk where a hundred contacts and more slip together",
-          "[methods][auto]") {
-  // Fig. 8's high-load block slips on 15x15 (112 contacts, all below the
-  // drive speed): multirate is faster inside each block slip but slower over
-  // the whole run (docs/PERFORMANCE.md, "Multirate"), so auto stays with dirk.
+TEST_CASE(
+    "method = auto runs multirate where multirate_min_fast contacts and more may slip "
+    "together, within the dense LU's reach",
+    "[methods][auto]") {
+  // Fig. 8's high-load block slips on 15x15 (112 contacts): multirate steps
+  // them apart at the default multirate_min_fast (64); with fewer contacts
+  // its steps would be single rate, and dirk's cost the same
+  // (docs/PERFORMANCE.md, "Multirate").
   Case c;
   c.lattice.nx = c.lattice.ny = 15;
   c.lattice.nz = 2;
   c.interface.coverage = 0.498;
   c.interface.seed = 1;
   c.drive.velocity = 1e-3;
-  const System s(c, place_contacts(c.lattice, c.interface));
-  REQUIRE(s.contacts().size() >= 100);
-  const MethodChoice choice = choose_method(s, c.solver);
-  CHECK(choice.method == Method::dirk);
-  CHECK(choice.reason.find(std::to_string(s.contacts().size()) + " contacts") != std::string::npos);
+  auto choice_for = [](const Case& k) {
+    const System s(k, place_contacts(k.lattice, k.interface));
+    return std::pair{choose_method(s, k.solver), s.contacts().size()};
+  };
+  const auto [block, contacts] = choice_for(c);
+  REQUIRE(contacts == 112);
+  CHECK(block.method == Method::multirate);
+  CHECK(block.reason.find("of 112 contacts") != std::string::npos);
+  CHECK(block.reason.find("multirate_min_fast = 64") != std::string::npos);
+
+  Case fewer = c;  // fewer contacts than it steps apart
+  fewer.solver.multirate_min_fast = 113;
+  CHECK(choice_for(fewer).first.method == Method::dirk);
+  fewer.solver.multirate_min_fast = 112;
+  CHECK(choice_for(fewer).first.method == Method::multirate);
+
+  Case dense = c;  // beyond the dense LU: 45x45 at 0.498 places 1 008 contacts
+  dense.lattice.nx = dense.lattice.ny = 45;
+  const auto [beyond, sites] = choice_for(dense);
+  REQUIRE(sites > LatticeStageSolver::kMaxDenseSites);
+  CHECK(beyond.method == Method::dirk);
+
+  Case patches = c;  // multirate steps single-site contacts only
+  patches.interface.patch = 2;
+  patches.lattice.nx = patches.lattice.ny = 30;
+  const auto [patched, n_patched] = choice_for(patches);
+  REQUIRE(n_patched >= 64);
+  CHECK(patched.method == Method::dirk);
 }
 
 TEST_CASE("every method asks whether to stop every 500 steps", "[methods][poll]") {

@@ -6,6 +6,7 @@
 
 #include "stickslip/integrate/arkstep_integrator.hpp"
 #include "stickslip/integrate/cvode_integrator.hpp"
+#include "stickslip/integrate/lattice_stage_solver.hpp"
 #include "stickslip/integrate/multirate_integrator.hpp"
 #include "stickslip/integrate/tolerances.hpp"
 
@@ -28,11 +29,26 @@ MethodChoice choose_method(const System& system, const SolverParams& solver) {
             "method = \"auto\": bdf, since no contact has v* below the drive "
             "speed (steady sliding or creep, where its steps grow; "
             "docs/PERFORMANCE.md)"};
-  // Not multirate, even where hundreds of contacts slip together: it is
-  // faster inside a block slip (2.3x on 30x30x10) but slower over whole runs
-  // (1.37x on theta05's 15x15x10, 2x at coverage 0.04), since between block
-  // slips its contacts slipping alone cost coupling passes dirk does not pay
-  // (docs/PERFORMANCE.md, "Multirate").
+  // multirate where there are contacts enough for it to step them apart
+  // (multirate_min_fast; in a block slip those with v* above the drive speed
+  // slip too): fewer slipping together, its steps are single rate
+  // and cost what dirk's do (15x15x10, theta 0.04: 39.7 against 40.6 s),
+  // more, a block slip costs 2.9x less (30x30x10: 176 against 514 s) and a
+  // whole 15x15 point at theta 0.498 the same (207 against 206 s;
+  // docs/PERFORMANCE.md, "Multirate"). Not above kMaxDenseSites, where it
+  // keeps the contacts' dense LU (O(N_c^3)) and dirk goes matrix free; nor
+  // with patches, which it does not step.
+  const std::size_t contacts = system.contacts().size();
+  if (system.patch() == 1 && contacts >= static_cast<std::size_t>(solver.multirate_min_fast) &&
+      LatticeStageSolver::uses_dense_lu(system.sites().size()))
+    return {Method::multirate,
+            "method = \"auto\": multirate, since " + std::to_string(weak) + " of " +
+                std::to_string(contacts) +
+                " contacts have v* below the drive speed and stick-slip, and there are at least "
+                "[solver] multirate_min_fast = " +
+                std::to_string(solver.multirate_min_fast) +
+                " to slip together: a block slip on their own sub-steps costs a fraction of "
+                "dirk's global steps (docs/PERFORMANCE.md)"};
   return {Method::dirk, "method = \"auto\": dirk, since " + std::to_string(weak) + " of " +
                             std::to_string(system.contacts().size()) +
                             " contacts have v* below the drive speed and stick-slip, where dirk "
