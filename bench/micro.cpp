@@ -7,7 +7,7 @@
 //   jacobian       refreshing the sparse Jacobian's values (contact blocks only)
 //   lattice_factorize      LatticeSolver::set_gamma: M(γ) per Fourier mode and the
 //                          bottom layer's Green's function (dirk, bdf: once per γ)
-//   lattice_solve          one FFT solve with M(γ) (two per implicit stage)
+//   lattice_solve          one FFT solve with M(γ) (one per implicit stage)
 //   implicit_stage/N/P     LatticeStageSolver::solve, a whole dirk or bdf stage, at
 //                          coverage P % (the contacts' coupled Newton grows with N_c);
 //                          the same stage again and again, at one γ

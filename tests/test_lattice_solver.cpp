@@ -228,6 +228,61 @@ TEST_CASE(
   }
 }
 
+TEST_CASE(
+    "the lattice solve in parts (held solution, its bottom-layer velocity, a bottom-layer "
+    "source added) is M^-1 (r + P^T f)",
+    "[lattice_solver]") {
+  for (const Shape& shape : kShapes) {
+    const System s = make_system(shape.nx, shape.ny, shape.nz, {});
+    LatticeSolver solver(s);
+    for (double gamma : {1e-7, 3e-6}) {
+      solver.set_gamma(gamma);
+      const std::int64_t n3 = 3 * s.num_nodes();
+      const std::vector<double> y = random_state(s, 11);
+      const std::vector<double> r(y.begin() + n3, y.begin() + 2 * n3);
+      const SparseMatrix m = velocity_matrix(s, gamma);
+      const Eigen::Map<const Eigen::VectorXd> rv(r.data(), n3);
+      const Eigen::VectorXd held = direct_solve(m, rv);
+
+      solver.begin_solve(r);
+      // The held solution's bottom layer, in-plane.
+      solver.held_surface_velocity();
+      const auto field = solver.surface_field();
+      const std::size_t layer = field.size() / 2;
+      double worst = 0.0, scale = 0.0;
+      for (int ix = 0; ix < shape.nx; ++ix)
+        for (int iy = 0; iy < shape.ny; ++iy)
+          for (int a = 0; a < 2; ++a) {
+            const double direct = held[s.w_index(s.node(ix, iy, 0), a) - n3];
+            worst = std::max(
+                worst,
+                std::abs(field[a * layer + static_cast<std::size_t>(ix + shape.nx * iy)] - direct));
+            scale = std::max(scale, std::abs(direct));
+          }
+      INFO(shape.nx << "x" << shape.ny << "x" << shape.nz << ", gamma " << gamma);
+      CHECK(worst < 1e-12 * scale);
+
+      // In-plane forces on the bottom layer, added to the held solution.
+      std::mt19937 rng(5);
+      std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+      Eigen::VectorXd source = rv;
+      for (int ix = 0; ix < shape.nx; ++ix)
+        for (int iy = 0; iy < shape.ny; ++iy)
+          for (int a = 0; a < 2; ++a) {
+            const double f = 1e-3 * uniform(rng);
+            field[a * layer + static_cast<std::size_t>(ix + shape.nx * iy)] = f;
+            source[s.w_index(s.node(ix, iy, 0), a) - n3] += f;
+          }
+      solver.add_surface_source();
+      std::vector<double> w(r.size());
+      solver.finish_solve(w);
+      const Eigen::VectorXd direct = direct_solve(m, source);
+      const Eigen::Map<const Eigen::VectorXd> wv(w.data(), n3);
+      CHECK((wv - direct).cwiseAbs().maxCoeff() < 1e-12 * direct.cwiseAbs().maxCoeff());
+    }
+  }
+}
+
 TEST_CASE("convolving a bottom-layer field by FFT gives the sum over the Green's function",
           "[lattice_solver]") {
   for (const Shape& shape : kShapes) {

@@ -33,7 +33,17 @@ std::mutex& planner_mutex() {
 }  // namespace
 
 // FFTW plans, destroyed with the solver. Planned with FFTW_ESTIMATE: the same
-// algorithm on every run, so results are reproducible bit for bit.
+// algorithm on every run, so results are reproducible bit for bit. Without
+// buffering: FFTW's buffered plans allocate their buffers at every execution
+// (malloc ~7 % of a 30x30x10 run); unbuffered, a 30x30x10 solve took 335
+// instead of 405 µs (bench/micro.cpp, lattice_solve).
+// Some shapes have no unbuffered plan (a 33-wide layer): those are buffered.
+template <class Planner>
+fftw_plan plan_unbuffered_if_possible(Planner&& planner) {
+  if (fftw_plan p = planner(FFTW_ESTIMATE | FFTW_NO_BUFFERING)) return p;
+  return planner(FFTW_ESTIMATE);
+}
+
 struct LatticeSolver::Plans {
   // The velocity field's transforms, one plan per group of layers (their
   // three components each), so the groups can go to the run's threads.
@@ -58,27 +68,33 @@ LatticeSolver::LatticeSolver(const System& system)
       spectrum_(static_cast<std::size_t>(3 * nz_ * modes_)),
       plans_(std::make_unique<Plans>()) {
   const int nkx = nx_ / 2 + 1;
-  // The velocity field: index 3 (ix + Nx (iy + Ny iz)) + k; one 2D transform
-  // over (iy, ix) per layer and component. Its spectrum: index
-  // k + 3 (iz + Nz (kx + nkx iy)).
+  // The velocity field in planes, [iz][k][iy][ix] (transform_forward
+  // gathers it from the state's nodes), and its half spectrum [iz][k][mode]:
+  // 3 Nz contiguous 2D transforms of one layout in and out, which FFTW runs
+  // without buffers of its own. With the state's interleaved components and a
+  // spectrum laid out mode by mode, it copied through buffers it allocated at
+  // every execution (malloc and copies ~12 % of a 30x30x10 run at θ = 0.04).
   std::unique_lock lock(planner_mutex());
-  const fftw_iodim real_dims[2] = {{ny_, 3 * nx_, 3 * nz_ * nkx}, {nx_, 3, 3 * nz_}};
-  const fftw_iodim spec_dims[2] = {{ny_, 3 * nz_ * nkx, 3 * nx_}, {nx_, 3 * nz_, 3}};
   // One plan per group of layers: a layer each where layers are wide enough
   // to pay for going to threads, all layers in one plan below that (a
   // 6×6×4 pair ran 25 % slower a step with a plan per layer). Chosen by the
   // lattice alone, so the arithmetic does not depend on the thread count.
   layers_per_group_ = std::int64_t{nx_} * ny_ >= kLayeredFftPoints ? 1 : nz_;
-  const fftw_iodim many[2] = {{layers_per_group_, 3 * nx_ * ny_, 3}, {3, 1, 1}};
-  const fftw_iodim spec_many[2] = {{layers_per_group_, 3, 3 * nx_ * ny_}, {3, 1, 1}};
+  const int size[2] = {ny_, nx_};
+  const int fields = 3 * layers_per_group_, plane = nx_ * ny_;
+  const int spectral_plane = static_cast<int>(modes_);
   for (int iz = 0; iz < nz_; iz += layers_per_group_) {
-    double* group = real_.data() + std::size_t{3} * nx_ * ny_ * iz;
-    fftw_complex* group_spectrum = as_fftw(spectrum_.data() + 3 * iz);
-    if (fftw_plan p =
-            fftw_plan_guru_dft_r2c(2, real_dims, 2, many, group, group_spectrum, FFTW_ESTIMATE))
+    double* group = real_.data() + std::size_t{3} * plane * iz;
+    fftw_complex* group_spectrum = as_fftw(spectrum_.data() + std::size_t{3} * modes_ * iz);
+    if (fftw_plan p = plan_unbuffered_if_possible([&](unsigned flags) {
+          return fftw_plan_many_dft_r2c(2, size, fields, group, nullptr, 1, plane, group_spectrum,
+                                        nullptr, 1, spectral_plane, flags);
+        }))
       plans_->forward.push_back(p);
-    if (fftw_plan p = fftw_plan_guru_dft_c2r(2, spec_dims, 2, spec_many, group_spectrum, group,
-                                             FFTW_ESTIMATE))
+    if (fftw_plan p = plan_unbuffered_if_possible([&](unsigned flags) {
+          return fftw_plan_many_dft_c2r(2, size, fields, group_spectrum, nullptr, 1, spectral_plane,
+                                        group, nullptr, 1, plane, flags);
+        }))
       plans_->backward.push_back(p);
   }
   // The Green's function: four fields (a, b), spectrum [mode][a b] → [a b][iy][ix].
@@ -94,14 +110,16 @@ LatticeSolver::LatticeSolver(const System& system)
   surface_field_.resize(static_cast<std::size_t>(2 * nx_ * ny_));
   const fftw_iodim surface_real[2] = {{ny_, nx_, nkx}, {nx_, 1, 1}};
   const fftw_iodim surface_real_many[1] = {{2, nx_ * ny_, static_cast<int>(modes_)}};
-  plans_->surface_forward =
-      fftw_plan_guru_dft_r2c(2, surface_real, 1, surface_real_many, surface_field_.data(),
-                             as_fftw(surface_spectrum_.data()), FFTW_ESTIMATE);
+  plans_->surface_forward = plan_unbuffered_if_possible([&](unsigned flags) {
+    return fftw_plan_guru_dft_r2c(2, surface_real, 1, surface_real_many, surface_field_.data(),
+                                  as_fftw(surface_spectrum_.data()), flags);
+  });
   const fftw_iodim surface_spec[2] = {{ny_, nkx, nx_}, {nx_, 1, 1}};
   const fftw_iodim surface_spec_many[1] = {{2, static_cast<int>(modes_), nx_ * ny_}};
-  plans_->surface_backward = fftw_plan_guru_dft_c2r(2, surface_spec, 1, surface_spec_many,
-                                                    as_fftw(surface_spectrum_.data()),
-                                                    surface_field_.data(), FFTW_ESTIMATE);
+  plans_->surface_backward = plan_unbuffered_if_possible([&](unsigned flags) {
+    return fftw_plan_guru_dft_c2r(2, surface_spec, 1, surface_spec_many,
+                                  as_fftw(surface_spectrum_.data()), surface_field_.data(), flags);
+  });
   lock.unlock();
   const auto groups = static_cast<std::size_t>(nz_ / layers_per_group_);
   if (plans_->forward.size() != groups || plans_->backward.size() != groups || !plans_->green ||
@@ -111,6 +129,7 @@ LatticeSolver::LatticeSolver(const System& system)
   const std::size_t blocks = static_cast<std::size_t>(9 * nz_ * modes_);
   for (auto* v : {&k_diag_, &k_up_, &c_diag_, &c_up_, &s_inv_, &upper_, &multiplier_})
     v->assign(blocks, Complex{});
+  surface_response_.assign(static_cast<std::size_t>(2 * 3 * nz_ * modes_), Complex{});
   probe(system);
 }
 
@@ -136,12 +155,12 @@ void LatticeSolver::probe(const System& system) {
                                      response);
         unit[at] = 0.0;
         // K e = −(a(e) − a(0)): the accelerations are −K u − C w + forcing.
-        for (std::size_t r = 0; r < n3; ++r) real_[r] = base[r] - response[r];
-        transform_forward();
+        for (std::size_t r = 0; r < n3; ++r) response[r] = base[r] - response[r];
+        transform_forward(response.data());
         for (std::int64_t m = 0; m < modes_; ++m)
           for (int iz = 0; iz < nz_; ++iz)
             for (int k = 0; k < 3; ++k) {
-              const Complex v = spectrum_[k + 3 * (iz + nz_ * m)];
+              const Complex v = spectrum_[spectral_index(m, iz, k)];
               scale = std::max(scale, std::abs(v));
               const std::size_t slot = 9 * (iz + nz_ * m) + k + 3 * l;
               if (iz == jz) {
@@ -162,16 +181,18 @@ void LatticeSolver::set_gamma(double gamma) {
   if (gamma == gamma_) return;
   gamma_ = gamma;
   ++factorizations_;
-  // Per mode: its factorization, then the Green's function, column b of
-  // M̂(q)⁻¹ at the bottom layer. Modes are independent: any thread may take one.
+  // Per mode: its factorization, then column b of M̂(q)⁻¹ at the bottom
+  // layer's in-plane component b: the whole lattice's response to a force
+  // there (add_surface_source), whose bottom entries are the Green's
+  // function. Modes are independent: any thread may take one.
+  const std::size_t column = static_cast<std::size_t>(3 * nz_);
   for_each_mode([&](std::int64_t m) {
     factorize_mode(m);
-    thread_local std::vector<Complex> x;  // no allocation per mode (was 1.4 % of a slip)
-    x.resize(static_cast<std::size_t>(3 * nz_));
     for (int b = 0; b < 2; ++b) {
-      std::fill(x.begin(), x.end(), Complex{});
+      Complex* x = &surface_response_[(2 * static_cast<std::size_t>(m) + b) * column];
+      std::fill(x, x + column, Complex{});
       x[b] = 1.0;
-      solve_mode(m, x.data());
+      solve_mode(m, x);
       for (int a = 0; a < 2; ++a) green_spectrum_[4 * m + 2 * a + b] = x[a];
     }
   });
@@ -239,32 +260,90 @@ void LatticeSolver::for_each_mode(PerMode&& per_mode) const {
 }
 
 // Group by group of layers (plans_), each on one thread (its plan, its part
-// of real_ and of spectrum_), with the copy in (`from`) or out (`to`) of it.
+// of real_ and of spectrum_), with the state's interleaved components
+// gathered into planes (`from`) or scattered back from them (`to`).
 void LatticeSolver::transform_forward(const double* from) {
-  const std::size_t group = std::size_t{3} * nx_ * ny_ * layers_per_group_;
+  const std::int64_t plane = std::int64_t{nx_} * ny_;
   parallel_for(threads_, static_cast<std::int64_t>(plans_->forward.size()), [&](std::int64_t g) {
-    if (from) std::copy_n(from + group * g, group, real_.data() + group * g);
+    if (from)
+      for (std::int64_t iz = g * layers_per_group_; iz < (g + 1) * layers_per_group_; ++iz) {
+        const double* nodes = from + 3 * plane * iz;
+        double* planes = real_.data() + 3 * plane * iz;
+        for (std::int64_t p = 0; p < plane; ++p)
+          for (int k = 0; k < 3; ++k) planes[k * plane + p] = nodes[3 * p + k];
+      }
     fftw_execute(plans_->forward[static_cast<std::size_t>(g)]);
   });
 }
 
 void LatticeSolver::transform_backward(double* to) {
-  const std::size_t group = std::size_t{3} * nx_ * ny_ * layers_per_group_;
-  const double norm = 1.0 / (static_cast<double>(nx_) * ny_);
+  const std::int64_t plane = std::int64_t{nx_} * ny_;
+  const double norm = 1.0 / static_cast<double>(plane);
   parallel_for(threads_, static_cast<std::int64_t>(plans_->backward.size()), [&](std::int64_t g) {
     fftw_execute(plans_->backward[static_cast<std::size_t>(g)]);
-    double* v = real_.data() + group * g;
-    for (std::size_t i = 0; i < group; ++i) v[i] *= norm;
-    if (to) std::copy_n(v, group, to + group * g);
+    for (std::int64_t iz = g * layers_per_group_; iz < (g + 1) * layers_per_group_; ++iz) {
+      double* nodes = to + 3 * plane * iz;
+      const double* planes = real_.data() + 3 * plane * iz;
+      for (std::int64_t p = 0; p < plane; ++p)
+        for (int k = 0; k < 3; ++k) nodes[3 * p + k] = norm * planes[k * plane + p];
+    }
   });
 }
 
-void LatticeSolver::solve(std::span<const double> r, std::span<double> w) {
+// Each mode's 3 Nz unknowns lie `modes_` apart in the spectrum: gathered into
+// a contiguous vector for the solve and scattered back.
+void LatticeSolver::solve_held() {
+  const std::size_t column = static_cast<std::size_t>(3 * nz_);
+  for_each_mode([&](std::int64_t m) {
+    thread_local std::vector<Complex> x;  // no allocation per mode
+    x.resize(column);
+    const Complex* in = spectrum_.data() + m;
+    for (std::size_t i = 0; i < column; ++i) x[i] = in[i * modes_];
+    solve_mode(m, x.data());
+    Complex* out = spectrum_.data() + m;
+    for (std::size_t i = 0; i < column; ++i) out[i * modes_] = x[i];
+  });
+}
+
+void LatticeSolver::begin_solve(std::span<const double> r) {
   if (gamma_ < 0.0) throw std::logic_error("LatticeSolver::solve before set_gamma");
   ++solves_;
   transform_forward(r.data());
-  for_each_mode([&](std::int64_t m) { solve_mode(m, &spectrum_[3 * nz_ * m]); });
+  solve_held();
+}
+
+// The bottom layer's in-plane components are the first two planes of the
+// held spectrum, laid out as surface_spectrum_ is.
+void LatticeSolver::held_surface_velocity() {
+  std::copy_n(spectrum_.begin(), surface_spectrum_.size(), surface_spectrum_.begin());
+  fftw_execute(plans_->surface_backward);
+  const double norm = 1.0 / (static_cast<double>(nx_) * ny_);
+  for (double& v : surface_field_) v *= norm;
+}
+
+// M⁻¹ Pᵀ f in spectrum: the transform of f (nonzero on the bottom layer's
+// in-plane components only) times the columns of M̂⁻¹ at those components,
+// kept from set_gamma; no transform of the whole lattice and no solve.
+void LatticeSolver::add_surface_source() {
+  fftw_execute(plans_->surface_forward);
+  const std::size_t column = static_cast<std::size_t>(3 * nz_);
+  for_each_mode([&](std::int64_t m) {
+    const Complex fx = surface_spectrum_[static_cast<std::size_t>(m)];
+    const Complex fy = surface_spectrum_[static_cast<std::size_t>(modes_ + m)];
+    const Complex* x = &surface_response_[2 * static_cast<std::size_t>(m) * column];
+    const Complex* y = x + column;
+    Complex* out = spectrum_.data() + m;
+    for (std::size_t i = 0; i < column; ++i) out[i * modes_] += x[i] * fx + y[i] * fy;
+  });
+}
+
+void LatticeSolver::finish_solve(std::span<double> w) {
   transform_backward(w.data());
+}
+
+void LatticeSolver::solve(std::span<const double> r, std::span<double> w) {
+  begin_solve(r);
+  finish_solve(w);
 }
 
 double LatticeSolver::green(int dx, int dy, int a, int b) const {

@@ -44,8 +44,7 @@ LatticeStageSolver::LatticeStageSolver(const System& system, double max_gamma_la
       matrix_free_(contact_newton == ContactNewton::matrix_free ||
                    (contact_newton == ContactNewton::by_count && !uses_dense_lu(sites_))),
       zero_(static_cast<std::size_t>(3 * nodes_), 0.0),
-      acc_(zero_.size()),
-      correction_(zero_.size()) {
+      acc_(zero_.size()) {
   const auto& sites = system.sites();
   for (std::size_t i = 0; i < sites_; ++i) site_w_.push_back(system.w_index(sites[i].node, 0));
   for (const auto& site : sites) {
@@ -131,24 +130,29 @@ long LatticeStageSolver::solve(double t, double gamma, std::span<const double> p
   const auto u = z.subspan(0, n3), w = z.subspan(n3, n3);
   refused_sites_.clear();
   set_gamma(gamma);
-  // r = b_w + γ a_L(t, b_u, 0), then w0 = M⁻¹ r, in place.
+  // r = b_w + γ a_L(t, b_u, 0), then w0 = M⁻¹ r, held by the lattice solver.
   system_.lattice_accelerations(t, u, zero_, acc_);
   for (std::size_t r = 0; r < n3; ++r) w[r] += gamma * acc_[r];
-  lattice_.solve(w, w);
+  lattice_.begin_solve(w);
 
   long iterations = 0;
   if (sites_ > 0) {
+    // s0 = P w0.
+    const auto field = lattice_.surface_field();
+    const std::size_t layer = field.size() / 2;
+    lattice_.held_surface_velocity();
     for (std::size_t i = 0; i < sites_; ++i)
-      for (int k = 0; k < 2; ++k) free_speed_(2 * i + k) = z[site_w_[i] + k];
+      for (std::size_t k = 0; k < 2; ++k)
+        free_speed_(2 * i + k) = field[k * layer + site_surface_[i]];
     iterations = solve_contacts(predictor, weights);
     // w = w0 + M⁻¹ (γ Pᵀ a_c), γ a_c = (Σ(β) − β)/ḡ.
-    std::fill(correction_.begin(), correction_.end(), 0.0);
+    std::fill(field.begin(), field.end(), 0.0);
     for (std::size_t i = 0; i < sites_; ++i)
-      for (int k = 0; k < 2; ++k)
-        correction_[site_w_[i] - n3 + k] = (sigma_(2 * i + k) - beta_(2 * i + k)) / self_green_;
-    lattice_.solve(correction_, correction_);
-    for (std::size_t r = 0; r < n3; ++r) w[r] += correction_[r];
+      for (std::size_t k = 0; k < 2; ++k)
+        field[k * layer + site_surface_[i]] = (sigma_(2 * i + k) - beta_(2 * i + k)) / self_green_;
+    lattice_.add_surface_source();
   }
+  lattice_.finish_solve(w);
   for (std::size_t r = 0; r < n3; ++r) u[r] += gamma * w[r];
 
   // The quadratures: q = b_q + γ q'(t, z), their rates depending on u and w only.

@@ -48,6 +48,20 @@ class LatticeSolver {
   // r and w may be the same span.
   void solve(std::span<const double> r, std::span<double> w);
 
+  // The same solve in parts, for a stage whose forces on the bottom layer
+  // are known only from the solution (LatticeStageSolver::solve):
+  //     w = M⁻¹ r + M⁻¹ Pᵀ f
+  // at the cost of one solve, one transform each way of the lattice, where
+  // two solves cost two. begin_solve holds M⁻¹ r (in spectrum);
+  // held_surface_velocity writes its bottom layer's in-plane components into
+  // surface_field(); add_surface_source adds M⁻¹ Pᵀ f for the in-plane
+  // forces f in surface_field() (which it leaves as scratch); finish_solve
+  // writes the held solution to w.
+  void begin_solve(std::span<const double> r);
+  void held_surface_velocity();
+  void add_surface_source();
+  void finish_solve(std::span<double> w);
+
   // (M(γ)⁻¹) between in-plane component a of bottom node (ix + dx, iy + dy)
   // and component b of bottom node (ix, iy), for any (ix, iy); a, b ∈ {0, 1}
   // (x, y). Offsets wrap periodically.
@@ -84,10 +98,16 @@ class LatticeSolver {
   // per_mode(m) for every mode, on threads_ OpenMP threads.
   template <class PerMode>
   void for_each_mode(PerMode&& per_mode) const;
-  // real_ (first copied from `from`, 3N values, unless null) → spectrum_.
-  void transform_forward(const double* from = nullptr);
-  // spectrum_ → real_, scaled by 1/(Nx Ny), then copied to `to` unless null.
-  void transform_backward(double* to = nullptr);
+  // `from` (3N values, the state's node order) → real_ → spectrum_.
+  void transform_forward(const double* from);
+  // spectrum_ → real_ → `to`, scaled by 1/(Nx Ny).
+  void transform_backward(double* to);
+  // The held spectrum ← M̂⁻¹ times it, mode by mode.
+  void solve_held();
+  // Where component k of layer iz of mode m lies in spectrum_.
+  std::size_t spectral_index(std::int64_t m, int iz, int k) const {
+    return static_cast<std::size_t>((3 * iz + k) * modes_ + m);
+  }
 
   // Layers of at least this many nodes get an FFT plan each (threads take
   // them layer by layer); smaller ones share one plan.
@@ -111,8 +131,10 @@ class LatticeSolver {
   std::vector<Complex> surface_green_;     // [mode][a][b]
   std::vector<Complex> surface_spectrum_;  // [component][mode]
   std::vector<double> surface_field_;
-  // FFT buffers: the velocity field (3N reals) and its half spectrum laid out
-  // [mode][layer][component], so each mode's system is contiguous.
+  // Per mode, the columns of M̂⁻¹ at the bottom layer's x and y: [mode][b][3 Nz].
+  std::vector<Complex> surface_response_;
+  // FFT buffers: the velocity field (3N reals) in planes [layer][component]
+  // [iy][ix] and its half spectrum [layer][component][mode].
   std::vector<double> real_;
   std::vector<Complex> spectrum_;
   std::unique_ptr<Plans> plans_;

@@ -8,8 +8,8 @@
 // solved by Newton in variables where it is smooth, with every contact's own
 // equation solved exactly in log-speed as imex's stage solve does: no Newton
 // iteration ever runs on the 10¹⁰–10¹⁵ s⁻¹ contact stiffness near rest that
-// stalls Newton on the whole state (MODEL.md §12). The lattice costs two FFT
-// solves (LatticeSolver) per stage; nothing here knows of SUNDIALS.
+// stalls Newton on the whole state (MODEL.md §12). The lattice costs one FFT
+// solve (LatticeSolver) per stage; nothing here knows of SUNDIALS.
 
 #include <Eigen/Dense>
 #include <Eigen/SparseLU>
@@ -137,7 +137,7 @@ class LatticeStageSolver {
   double gamma_ = -1.0;
   double self_green_ = 0.0;
   // Scratch.
-  std::vector<double> zero_, acc_, correction_;
+  std::vector<double> zero_, acc_;
   Eigen::VectorXd free_speed_, beta_, sigma_, residual_, trial_, step_, product_, trial_force_,
       krylov_force_;
   Eigen::VectorXd newton_weight_;  // the sites' speeds' error weights (solve_contacts)
