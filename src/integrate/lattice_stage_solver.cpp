@@ -226,7 +226,7 @@ void LatticeStageSolver::factorize_jacobian() {
       }
     }
   };
-  parallel_for(system_.threads(), static_cast<std::int64_t>(sites_),
+  parallel_for(system_.loop_threads(), static_cast<std::int64_t>(sites_),
                [&](std::int64_t j) { fill_columns(static_cast<std::size_t>(j)); });
   jacobian_lu_.emplace(jacobian_);
   ++factorizations_;
@@ -545,7 +545,7 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
     sigma_(2 * i + 1) = stages_[i].s[1];
   };
   auto evaluate = [&](const Eigen::VectorXd& beta) {
-    parallel_for(system_.threads(), static_cast<std::int64_t>(sites_),
+    parallel_for(system_.loop_threads(), static_cast<std::int64_t>(sites_),
                  [&](std::int64_t i) { stage(beta, static_cast<std::size_t>(i)); });
     trial_force_ = sigma_ - beta;
     apply_coupling(trial_force_, product_);

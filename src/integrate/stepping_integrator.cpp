@@ -189,7 +189,7 @@ void SteppingIntegrator::rethrow_pending() {
 }
 
 double SteppingIntegrator::advance(double t_out, std::span<double> y) {
-  const ScopedKernelThreads kernels(system_.threads());
+  const ScopedKernelThreads kernels(system_.loop_threads());
   std::fill(roots_.begin(), roots_.end(), 0);
   // Stepwise until the first step is taken (its h0 then comes from t_stop,
   // not t_out) and while a root found beyond an output time waits.

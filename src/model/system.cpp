@@ -90,6 +90,7 @@ System::System(const Case& c, std::vector<Contact> contacts)
       nz_(c.lattice.nz),
       n_(std::int64_t{nx_} * ny_ * nz_),
       threads_(resolved_threads(c.solver, n_)),
+      loop_threads_(threads_),
       contacts_(std::move(contacts)),
       patch_(c.interface.patch) {
   const auto& mat = c.material;
@@ -191,7 +192,7 @@ void System::lattice_accelerations(double t, std::span<const double> u_in,
     cells(iz, cell);
   };
   for (int parity = 0; parity < 2; ++parity)
-    parallel_for(threads_, (nz_ - parity + 1) / 2,
+    parallel_for(loop_threads_, (nz_ - parity + 1) / 2,
                  [&](std::int64_t k) { layer(parity + 2 * static_cast<int>(k)); });
 
   // Drive springs and dashpots to the plate moving at (v, 0, 0) (§5).

@@ -25,6 +25,7 @@
 #include "stickslip/output/checkpoint.hpp"
 #include "stickslip/output/recorder.hpp"
 #include "stickslip/output/writers.hpp"
+#include "stickslip/run/thread_governor.hpp"
 #include "stickslip/version.hpp"
 
 namespace stickslip {
@@ -172,6 +173,9 @@ struct CaseRun::State {
   // there (between output times if the request came mid-interval).
   void stop_if_requested(double t, long k);
   void flush_all();
+  // Lowers the loops' threads while they do not get their cores, and
+  // restores them (ThreadGovernor); called between steps.
+  void govern_threads();
   SolverStats total_stats() const;
   // Like the solver's counts, a run's cost spans its attempts: a restarted
   // point's wall time is that of every attempt up to its checkpoint.
@@ -213,6 +217,7 @@ struct CaseRun::State {
   double impulse_at_average = std::nan("");
   std::vector<RunSegment> segments;  // every attempt of the run, this one last
   Progress progress;
+  ThreadGovernor threads{system.threads()};
 };
 
 namespace {
@@ -366,6 +371,7 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
   // interval, case/methods.hpp): flush the outputs now and then, and stop at
   // once when a stop is requested.
   integrator_options.poll = [this] {
+    govern_threads();
     if (seconds_since(last_flush) > kFlushSeconds) {
       flush_all();
       last_flush = Clock::now();
@@ -442,8 +448,13 @@ void CaseRun::State::record_events(double t) {
   }
 }
 
+void CaseRun::State::govern_threads() {
+  system.set_loop_threads(threads.update(seconds_since(wall_start), process_wait_seconds));
+}
+
 double CaseRun::State::advance_to(double target) {
   for (;;) {
+    govern_threads();
     const double t = integrator->advance(target, y);
     if (!watched.empty()) {
       reached(t);
@@ -618,6 +629,9 @@ Summary CaseRun::finish() {
   summary.energy_audit_bound = audit_bound;
   summary.steady_sliding_mu = system.steady_sliding_mu();
   summary.solver = describe_solver(system, s.solver, *s.integrator);
+  // This attempt's (a restart's clocks start afresh).
+  summary.solver["threads_lowered_seconds"] =
+      s.threads.lowered_seconds(seconds_since(s.wall_start));
   summary.git_commit = kGitCommit;
   summary.segments = s.segments;
   summary.sundials_version = SUNDIALS_VERSION;

@@ -95,7 +95,7 @@ class LatticeSolver {
   void probe(const System& system);
   void factorize_mode(std::int64_t m);
   void solve_mode(std::int64_t m, Complex* x) const;
-  // per_mode(m) for every mode, on threads_ OpenMP threads.
+  // per_mode(m) for every mode, on the system's loop threads.
   template <class PerMode>
   void for_each_mode(PerMode&& per_mode) const;
   // `from` (3N values, the state's node order) → real_ → spectrum_.
@@ -112,8 +112,8 @@ class LatticeSolver {
   // Layers of at least this many nodes get an FFT plan each (threads take
   // them layer by layer); smaller ones share one plan.
   static constexpr std::int64_t kLayeredFftPoints = 1024;
+  const System& system_;  // for its loop threads
   int nx_, ny_, nz_;
-  int threads_;
   int layers_per_group_ = 1;  // of the velocity field's FFT plans
   std::int64_t modes_;        // Nx/2+1 times Ny (the half spectrum of a real 2D field)
   double gamma_ = -1.0;

@@ -91,6 +91,14 @@ class System {
   int nz() const { return nz_; }
   // OpenMP threads for the loops of a run ([solver] threads, resolved).
   int threads() const { return threads_; }
+  // The threads its loops use now: threads(), unless the run found that they
+  // do not get their cores (ThreadGovernor, run/thread_governor.hpp) and
+  // lowered it for a while. The machine's load, not the physics: results do
+  // not depend on it (parallel_for), so it may change between any two steps.
+  int loop_threads() const { return loop_threads_; }
+  void set_loop_threads(int threads) const {
+    loop_threads_ = threads < 1 ? 1 : threads > threads_ ? threads_ : threads;
+  }
   std::int64_t num_nodes() const { return n_; }
   std::int64_t size() const { return 6 * n_ + kQuadratures; }
   std::int64_t node(int ix, int iy, int iz) const {
@@ -291,6 +299,7 @@ class System {
   double a_, mass_, g1_, g2_;
   double k1_over_m_, k2_over_m_, kd_over_m_;  // [1/s²]
   int threads_;                 // OpenMP threads of a run ([solver] threads, resolved)
+  mutable int loop_threads_;    // of those, what the loops use now (loop_threads)
   double eta_, eta_c_;          // [1/s]
   double v_;                    // drive velocity [m/s]
   double contact_force_scale_;  // ε f0 / m [m/s²]
