@@ -30,20 +30,20 @@ std::mutex& planner_mutex() {
   return m;
 }
 
-}  // namespace
-
-// FFTW plans, destroyed with the solver. Planned with FFTW_ESTIMATE: the same
-// algorithm on every run, so results are reproducible bit for bit. Without
-// buffering: FFTW's buffered plans allocate their buffers at every execution
-// (malloc ~7 % of a 30x30x10 run); unbuffered, a 30x30x10 solve took 335
-// instead of 405 µs (bench/micro.cpp, lattice_solve).
-// Some shapes have no unbuffered plan (a 33-wide layer): those are buffered.
+// A plan without buffering where FFTW has one: its buffered plans allocate
+// their buffers at every execution (malloc ~7 % of a 30x30x10 run);
+// unbuffered, a 30x30x10 solve took 335 instead of 405 µs (bench/micro.cpp,
+// lattice_solve). Some shapes have none (a 33-wide layer): those are buffered.
 template <class Planner>
 fftw_plan plan_unbuffered_if_possible(Planner&& planner) {
   if (fftw_plan p = planner(FFTW_ESTIMATE | FFTW_NO_BUFFERING)) return p;
   return planner(FFTW_ESTIMATE);
 }
 
+}  // namespace
+
+// FFTW plans, destroyed with the solver. Planned with FFTW_ESTIMATE: the same
+// algorithm on every run, so results are reproducible bit for bit.
 struct LatticeSolver::Plans {
   // The velocity field's transforms, one plan per group of layers (their
   // three components each), so the groups can go to the run's threads.
