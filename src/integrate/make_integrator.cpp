@@ -50,7 +50,7 @@ MethodChoice choose_method(const System& system, const SolverParams& solver) {
                 " to slip together: a block slip on their own sub-steps costs a fraction of "
                 "dirk's global steps (docs/PERFORMANCE.md)"};
   return {Method::dirk, "method = \"auto\": dirk, since " + std::to_string(weak) + " of " +
-                            std::to_string(system.contacts().size()) +
+                            std::to_string(contacts) +
                             " contacts have v* below the drive speed and stick-slip, where dirk "
                             "is the fastest at equal accuracy (docs/PERFORMANCE.md)"};
 }
