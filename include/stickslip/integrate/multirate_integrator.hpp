@@ -16,9 +16,10 @@
 //     step is single rate, as dirk's (a lone slip costs less so: its stand-in
 //     pinned the coarse step to its miss, with three coupling passes a step).
 //  2. Each fast contact's sub-steps over [t, t + H] under Φ(t), the rest of
-//     the lattice's acceleration on its node: first Φ's Taylor line at t, then
-//     the polynomial through the coarse stages, a fast neighbour's part read
-//     off that neighbour's sub-steps.
+//     the lattice's acceleration on its node: first Φ's Taylor line at t (in
+//     a retry at the same H, the polynomial through Φ along the stages of the
+//     attempt it repeats), then the polynomial through the coarse stages, a
+//     fast neighbour's part read off that neighbour's sub-steps.
 //  3. The coarse ESDIRK step of everything, each fast contact's law replaced
 //     by the line a(τ) = p0 + p1 τ with the same ∫a dτ and ∫τ a dτ as its
 //     sub-steps (and ∫τ a shifted by what its stand-in's displacement
@@ -118,6 +119,10 @@ class MultirateIntegrator final : public Integrator {
   std::vector<int> forced_fast_;
   static constexpr int kFastHold = 3;
   std::unique_ptr<Step> step_, trial_;  // the last accepted step, and the one being tried
+  // z_ holds every stage of an attempt at step retry_H_ that is being retried
+  // (attempt: the next attempt's first Φ).
+  bool retry_stages_known_ = false;
+  double retry_H_ = 0.0;
 
   // Events.
   std::vector<int> roots_;
