@@ -54,13 +54,14 @@ MultirateIntegrator::MultirateIntegrator(const System& system, const SolverParam
       couplings_(node_couplings(system)),
       atol_(absolute_tolerances(system, solver)),
       // A fast contact is held to γλ ≤ 1 by its own sub-steps; a slow one
-      // that exceeds it turns fast (attempt). The dense LU at any size: with
-      // the matrix-free Newton steps (forced), the 30x30x10 block
-      // slip took 3.4 M Krylov iterations against 7 885 and twice the CPU,
-      // since the slow contacts, mostly stuck, are coupled at long range,
-      // beyond the near field that preconditions those steps.
-      stages_(system, LatticeStageSolver::kMaxGammaLambda,
-              LatticeStageSolver::ContactNewton::dense_lu),
+      // that exceeds it turns fast (attempt). The contacts' Newton steps by
+      // dirk's rule (LatticeStageSolver::uses_dense_lu): on 30x30x10 the
+      // matrix-free steps, forced, took twice the dense LU's CPU in a block
+      // slip (3.4 M Krylov iterations against 7 885), but on 60x60x10 (1 793
+      // sites) the dense LU's solves and factorizations took 77 % of a
+      // block slip's time and the matrix-free steps went twice as fast
+      // (docs/PERFORMANCE.md, "Multirate at 60x60").
+      stages_(system, LatticeStageSolver::kMaxGammaLambda),
       n_(y0.size()),
       t_stop_(t_stop),
       poll_steps_(poll_steps(Method::multirate, solver.linear_solver)),
