@@ -493,7 +493,7 @@ TEST_CASE(
 
 TEST_CASE(
     "method = auto runs multirate where multirate_min_fast contacts and more may slip "
-    "together, within the dense LU's reach",
+    "together, within the dense LU's reach and beyond",
     "[methods][auto]") {
   // Fig. 8's high-load block slips on 15x15 (112 contacts): multirate steps
   // them apart at the default multirate_min_fast (64); with fewer contacts
@@ -521,11 +521,13 @@ TEST_CASE(
   fewer.solver.multirate_min_fast = 112;
   CHECK(choice_for(fewer).first.method == Method::multirate);
 
-  Case dense = c;  // beyond the dense LU: 45x45 at 0.498 places 1 008 contacts
+  // Beyond the dense LU (45x45 at 0.498 places 1 008 contacts), where
+  // multirate's contacts' Newton steps go matrix free as dirk's do.
+  Case dense = c;
   dense.lattice.nx = dense.lattice.ny = 45;
   const auto [beyond, sites] = choice_for(dense);
   REQUIRE(sites > LatticeStageSolver::kMaxDenseSites);
-  CHECK(beyond.method == Method::dirk);
+  CHECK(beyond.method == Method::multirate);
 
   Case patches = c;  // multirate steps single-site contacts only
   patches.interface.patch = 2;

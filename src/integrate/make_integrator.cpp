@@ -6,7 +6,6 @@
 
 #include "stickslip/integrate/arkstep_integrator.hpp"
 #include "stickslip/integrate/cvode_integrator.hpp"
-#include "stickslip/integrate/lattice_stage_solver.hpp"
 #include "stickslip/integrate/multirate_integrator.hpp"
 #include "stickslip/integrate/tolerances.hpp"
 
@@ -35,12 +34,12 @@ MethodChoice choose_method(const System& system, const SolverParams& solver) {
   // and cost what dirk's do (15x15x10, theta 0.04: 39.7 against 40.6 s),
   // more, a block slip costs 2.9x less (30x30x10: 176 against 514 s) and a
   // whole 15x15 point at theta 0.498 the same (207 against 206 s;
-  // docs/PERFORMANCE.md, "Multirate"). Not above kMaxDenseSites, where it
-  // keeps the contacts' dense LU (O(N_c^3)) and dirk goes matrix free; nor
+  // docs/PERFORMANCE.md, "Multirate"). Beyond the dense LU's reach too,
+  // where both go matrix free: on 60x60x10 at coverage 0.498 the first 40 us
+  // of a block slip cost dirk 6.1x multirate's CPU (875 against 143 s). Not
   // with patches, which it does not step.
   const std::size_t contacts = system.contacts().size();
-  if (system.patch() == 1 && contacts >= static_cast<std::size_t>(solver.multirate_min_fast) &&
-      LatticeStageSolver::uses_dense_lu(system.sites().size()))
+  if (system.patch() == 1 && contacts >= static_cast<std::size_t>(solver.multirate_min_fast))
     return {Method::multirate,
             "method = \"auto\": multirate, since " + std::to_string(weak) + " of " +
                 std::to_string(contacts) +
