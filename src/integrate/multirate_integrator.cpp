@@ -246,12 +246,13 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
   // The first Φ: where an attempt at this same step has just solved every
   // stage (a retry after a slow contact turned fast), the polynomial through
   // Φ along those stages; otherwise its Taylor line at the step's start.
-  const bool stages_known = retry_stages_known_ && retry_H_ == H;
+  // (A retry comes at once, at the same H: advance_to.)
+  const bool stages_known = retry_stages_known_;
   retry_stages_known_ = false;
+  std::vector<std::array<double, 2>> phi(stage_tau.size());
   for (std::size_t q = 0; q < nf; ++q) {
     const NodeCoupling& c = couplings_[st.fast[q]];
     if (stages_known) {
-      std::vector<std::array<double, 2>> phi(stage_tau.size());
       for (std::size_t i = 0; i < phi.size(); ++i) phi[i] = c.forcing(z_[i].data());
       forcing[q] = Forcing::through(H, stage_tau, phi);
     } else {
@@ -347,7 +348,6 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
       if (debug()) std::fprintf(stderr, "t=%.9e H=%.3e fast=%zu turned\n", t_, H, nf);
       if (!fast_contacts(H).empty()) {
         retry_stages_known_ = true;
-        retry_H_ = H;
         return Attempt::retry;
       }
       // Too few to step apart: the step is single rate, and its contacts

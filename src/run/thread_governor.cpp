@@ -13,14 +13,15 @@ void ThreadGovernor::judge(double wall, std::optional<double> waited) {
       lowered_seconds_ += wall - lowered_since_;
       current_ = threads_;
     }
-  } else if (waited && window_->waited &&
-             *waited - *window_->waited > kMaxWait * current_ * elapsed) {
-    current_ = 1;
-    lowered_since_ = wall;
-    lowered_until_ = wall + backoff_;
-    backoff_ = std::min(2.0 * backoff_, kMaxBackoff);
   } else if (waited && window_->waited) {
-    backoff_ = kFirstBackoff;  // they got their cores: a later wait starts afresh
+    if (*waited - *window_->waited > kMaxWait * current_ * elapsed) {
+      current_ = 1;
+      lowered_since_ = wall;
+      lowered_until_ = wall + backoff_;
+      backoff_ = std::min(2.0 * backoff_, kMaxBackoff);
+    } else {
+      backoff_ = kFirstBackoff;  // they got their cores: a later wait starts afresh
+    }
   }
   window_ = Window{wall, waited};
 }

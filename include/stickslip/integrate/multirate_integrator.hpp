@@ -119,10 +119,9 @@ class MultirateIntegrator final : public Integrator {
   std::vector<int> forced_fast_;
   static constexpr int kFastHold = 3;
   std::unique_ptr<Step> step_, trial_;  // the last accepted step, and the one being tried
-  // z_ holds every stage of an attempt at step retry_H_ that is being retried
-  // (attempt: the next attempt's first Φ).
+  // z_ holds every stage of the attempt that the next one retries (attempt:
+  // the next attempt's first Φ).
   bool retry_stages_known_ = false;
-  double retry_H_ = 0.0;
 
   // Events.
   std::vector<int> roots_;
