@@ -66,6 +66,9 @@ std::vector<NodeCoupling> node_couplings(const System& system) {
         if (!own && v != 0.0) {
           c.column[r].push_back(col);
           c.value[r].push_back(v);
+          const bool velocity = col >= 3 * system.num_nodes() && col < 6 * system.num_nodes();
+          double& largest = velocity ? c.neighbour_damping : c.neighbour_stiffness;
+          largest = std::max(largest, std::abs(v));
         }
       }
     }
@@ -257,6 +260,9 @@ SubstepResult ContactSubsteps::advance(std::size_t j, const NodeCoupling& coupli
       for (int k = 0; k < 2; ++k) {
         out.impulse[k] += wb * ac[l][k];
         out.moment[k] += wb * tl * ac[l][k];
+        const double own = ac[l][k] + K * z[l][k] + C * z[l][2 + k];
+        out.own_impulse[k] += wb * own;
+        out.own_moment[k] += wb * tl * own;
       }
       dissipated -= wb * m * (ac[l][0] * z[l][2] + ac[l][1] * z[l][3]);
     }

@@ -61,6 +61,7 @@ LatticeStageSolver::LatticeStageSolver(const System& system, double max_gamma_la
   predicted_speed_.resize(sites_);
   prescribed_.assign(sites_, 0);
   prescribed_acceleration_.assign(sites_, {0.0, 0.0});
+  prescribed_rate_.assign(sites_, 0.0);
   // Eigen's LU runs its block updates on every OpenMP thread by default, and
   // chooses its products' blocking by thread count: results could depend on
   // the number of threads. It also mostly spin-waited on these ≤ 900² matrices
@@ -71,10 +72,12 @@ LatticeStageSolver::LatticeStageSolver(const System& system, double max_gamma_la
   if (matrix_free_) find_near_field();
 }
 
-void LatticeStageSolver::prescribe(std::size_t site, std::array<double, 2> acceleration) {
+void LatticeStageSolver::prescribe(std::size_t site, std::array<double, 2> acceleration,
+                                   double rate) {
   if (!prescribed_[site]) prescribed_sites_.push_back(site);
   prescribed_[site] = 1;
   prescribed_acceleration_[site] = acceleration;
+  prescribed_rate_[site] = rate;
 }
 
 void LatticeStageSolver::release_all() {
@@ -530,10 +533,15 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
 
   // F(β) and its weighted max norm; Σ(β) into sigma_, ∂Σ/∂β into stages_.
   auto stage = [&](const Eigen::VectorXd& beta, std::size_t i) {
-    if (prescribed_[i]) {  // s − γ ḡ a = β with a given: s = β + γ ḡ a, ∂s/∂β = I
-      const auto& a = prescribed_acceleration_[i];
-      stages_[i].s = {beta(2 * i) + gamma_self * a[0], beta(2 * i + 1) + gamma_self * a[1]};
-      stages_[i].ds_db = {1.0, 0.0, 0.0, 1.0};
+    if (prescribed_[i]) {
+      // s − γ ḡ (p + q s) = β with p, q given: s = (β + γ ḡ p)/(1 − γ ḡ q).
+      const auto& p = prescribed_acceleration_[i];
+      const double gain = 1.0 / (1.0 - gamma_self * prescribed_rate_[i]);
+      if (!(gain > 0.0))
+        throw std::logic_error("a prescribed site's rate exceeds 1/(gamma g) (prescribe)");
+      stages_[i].s = {gain * (beta(2 * i) + gamma_self * p[0]),
+                      gain * (beta(2 * i + 1) + gamma_self * p[1])};
+      stages_[i].ds_db = {gain, 0.0, 0.0, gain};
       stages_[i].iterations = 0;
       sigma_(2 * i) = stages_[i].s[0];
       sigma_(2 * i + 1) = stages_[i].s[1];
@@ -569,9 +577,12 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
 
   // Start from the predictor's contact forces: β = s0 + γ ḡ H a_c(s_pred).
   for (std::size_t i = 0; i < sites_; ++i) {
-    const auto a = prescribed_[i] ? prescribed_acceleration_[i]
-                                  : system_.site_acceleration(
-                                        i, {predictor[site_w_[i]], predictor[site_w_[i] + 1]});
+    const std::array<double, 2> s{predictor[site_w_[i]], predictor[site_w_[i] + 1]};
+    const auto a =
+        prescribed_[i]
+            ? std::array<double, 2>{prescribed_acceleration_[i][0] + prescribed_rate_[i] * s[0],
+                                    prescribed_acceleration_[i][1] + prescribed_rate_[i] * s[1]}
+            : system_.site_acceleration(i, s);
     trial_(2 * i) = gamma_self * a[0];
     trial_(2 * i + 1) = gamma_self * a[1];
   }

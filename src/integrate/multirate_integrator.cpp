@@ -19,7 +19,8 @@ struct MultirateIntegrator::Step {
   std::vector<double> y0, f0, y1, f1;
   std::vector<std::size_t> fast;    // sites
   std::vector<SubstepResult> fine;  // per fast site
-  // Each fast contact's law in the coarse step: a(τ) = line0 + line1 τ.
+  // Each fast contact's stand-in in the coarse step: line0 + line1 τ, less the
+  // node's own K u + C w along its coarse path where attempt cancels them.
   std::vector<std::array<double, 2>> line0, line1;
   double error = 0.0;
   int coupling_iterations = 0;
@@ -243,6 +244,21 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
   // feels its own lattice stiffness and damping along its own path, so its
   // displacement would miss the sub-steps' by δu; each iteration closes it.
   std::vector<std::array<double, 2>> extra_moment(nf, {0.0, 0.0});
+  // The stand-in cancels the node's own K u + C w along its coarse path and
+  // passes on the sub-steps' a_c + K u + C w instead: the coarse node then
+  // moves as the sub-steps did but for Φ, where the line through a_c alone
+  // left it to its own stiffness and damping, and its displacement missed the
+  // sub-steps' by ~C H² Δw (the miss below). In the stage the stand-in is
+  // a_c = p + q s with q = −(C + γ K) ≥ 0, which needs γ ḡ q < 1; ḡ ≤ 1,
+  // so it is used up to γ q = 1/2 (H ~ 1 µs here), beyond which the line
+  // through a_c alone is.
+  double gamma_max = 0.0;
+  for (int i = 1; i < s; ++i) gamma_max = std::max(gamma_max, H * table_.at(i, i));
+  bool cancel_own = true;
+  for (const std::size_t j : st.fast) {
+    const NodeCoupling& c = couplings_[j];
+    cancel_own = cancel_own && gamma_max * -(c.damping + gamma_max * c.stiffness) <= 0.5;
+  }
   // The first Φ: where an attempt at this same step has just solved every
   // stage (a retry after a slow contact turned fast), the polynomial through
   // Φ along those stages; otherwise its Taylor line at the step's start.
@@ -280,7 +296,9 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
       // The line with ∫a = A0 and ∫τ a = A1 over [0, H]: the coarse node
       // then passes on the sub-steps' impulse and their displacement.
       for (int k = 0; k < 2; ++k) {
-        const double A0 = current[q].impulse[k], A1 = current[q].moment[k] + extra_moment[q][k];
+        const double A0 = cancel_own ? current[q].own_impulse[k] : current[q].impulse[k];
+        const double A1 =
+            (cancel_own ? current[q].own_moment[k] : current[q].moment[k]) + extra_moment[q][k];
         st.line0[q][k] = 4.0 * A0 / H - 6.0 * A1 / (H * H);
         st.line1[q][k] = 12.0 * A1 / (H * H * H) - 6.0 * A0 / (H * H);
       }
@@ -288,8 +306,13 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
     // 3. The coarse step, the fast contacts' law replaced by their lines.
     auto f0 = st.f0;
     for (std::size_t q = 0; q < nf; ++q) {
-      const auto wx = w_of(system_, st.fast[q]);
-      for (int k = 0; k < 2; ++k) f0[wx + k] += st.line0[q][k] - contact_a_[st.fast[q]][k];
+      const std::size_t j = st.fast[q];
+      const auto ux = u_of(system_, j), wx = w_of(system_, j);
+      const NodeCoupling& c = couplings_[j];
+      for (int k = 0; k < 2; ++k) {
+        const double own = cancel_own ? c.stiffness * y_[ux + k] + c.damping * y_[wx + k] : 0.0;
+        f0[wx + k] += st.line0[q][k] - own - contact_a_[j][k];
+      }
     }
     z_[0] = st.y0;
     f_[0] = f0;
@@ -301,10 +324,18 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
         b_[r] = st.y0[r] + H * sum;
       }
       const double tau = stage_tau[static_cast<std::size_t>(i)];
-      for (std::size_t q = 0; q < nf; ++q)
-        stages_.prescribe(st.fast[q], {st.line0[q][0] + st.line1[q][0] * tau,
-                                       st.line0[q][1] + st.line1[q][1] * tau});
       const double gamma = H * table_.at(i, i);
+      for (std::size_t q = 0; q < nf; ++q) {
+        // The stand-in: line − K u − C w with u = b_u + γ w at the stage.
+        const std::size_t j = st.fast[q];
+        const auto ux = u_of(system_, j);
+        const NodeCoupling& c = couplings_[j];
+        std::array<double, 2> p{};
+        for (int k = 0; k < 2; ++k)
+          p[k] =
+              st.line0[q][k] + st.line1[q][k] * tau - (cancel_own ? c.stiffness * b_[ux + k] : 0.0);
+        stages_.prescribe(j, p, cancel_own ? -(c.damping + gamma * c.stiffness) : 0.0);
+      }
       auto& z = z_[static_cast<std::size_t>(i)];
       z = b_;
       try {
@@ -379,18 +410,21 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
       const std::size_t j = st.fast[q];
       const auto ux = u_of(system_, j), wx = w_of(system_, j);
       // The coarse node's end against the sub-steps' (which replaces it): the
-      // line passes on their impulse and displacement, but the node feels its
-      // own lattice stiffness and damping along its own path. Held to the
-      // tolerance like a local error: where C H ~ 1 the miss, unchecked, made
-      // a contact creeping past its peak force oscillate and grow from step
-      // to step.
+      // stand-in passes on their impulse and displacement, but the coarse node
+      // moves under Φ along the coarse stages, the sub-steps under the Φ of
+      // the last iteration (and, where its own K and C are not cancelled,
+      // under them along its own path). Held to the tolerance like a local
+      // error: where C H ~ 1 the miss, unchecked, made a contact creeping
+      // past its peak force oscillate and grow from step to step.
       const SubstepPoint& end = current[q].points.back();
       const NodeCoupling& c = couplings_[j];
       for (int k = 0; k < 2; ++k) {
         const double du = end.x[k] - z_end[ux + k];
-        // What the neighbours felt wrong: the dashpots' impulse −C δu and
-        // the springs' ~ −K δu H/2, in velocity, weighted as the node's.
-        miss = std::max(miss, (std::abs(c.damping) + 0.5 * std::abs(c.stiffness) * H) *
+        // What a neighbour felt wrong: its dashpot's impulse η δu and its
+        // spring's ~ k δu H/2, in velocity, weighted as the node's. (Scaled
+        // by the node's own C and K, the sum over its ~5 neighbours, the miss
+        // sized 75 % of a 15×15 block slip's coarse steps.)
+        miss = std::max(miss, (c.neighbour_damping + 0.5 * c.neighbour_stiffness * H) *
                                   std::abs(du) * weights_[wx + k]);
         extra_moment[q][k] -= du;  // next iteration: ∫∫a += δu
       }

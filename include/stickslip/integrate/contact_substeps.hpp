@@ -56,6 +56,11 @@ inline HermiteWeights hermite_weights(double s, double h) {
 struct NodeCoupling {
   double stiffness = 0.0;  // K [1/s²]
   double damping = 0.0;    // C [1/s]
+  // The largest coefficient with which one neighbour's acceleration reads
+  // this node's u and w (the stiffness and damping are symmetric, so this
+  // node's rows give them): how much a neighbour feels of an error in the node.
+  double neighbour_stiffness = 0.0;  // [1/s²]
+  double neighbour_damping = 0.0;    // [1/s]
   // Rows w_x, w_y of the node: the state components and coefficients of Φ.
   std::array<std::vector<std::int64_t>, 2> column;
   std::array<std::vector<double>, 2> value;
@@ -107,6 +112,10 @@ struct SubstepResult {
   // ∫ a_c dτ and ∫ τ a_c dτ over the coarse step: what the coarse level is
   // handed (the contact's impulse and its first moment).
   std::array<double, 2> impulse{}, moment{};
+  // The same of the node's own acceleration, a_c + K u + C w (all but Φ):
+  // what the coarse stand-in passes on where it cancels its own K and C
+  // (MultirateIntegrator::attempt).
+  std::array<double, 2> own_impulse{}, own_moment{};
   long substeps = 0, rejected = 0, stage_iterations = 0;
   double last_substep = 0.0;  // the controller's next sub-step
   // x at τ in [0, H], by the cubic Hermite of the sub-step holding it.

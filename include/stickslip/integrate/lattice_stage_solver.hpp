@@ -61,16 +61,16 @@ class LatticeStageSolver {
 
   // Sites whose contact acceleration is given instead of their law (the
   // multirate stepper's fast contacts, which it integrates on sub-steps of
-  // their own): a_c of site j is `acceleration` in the stages solved until
+  // their own): a_c of site j is `acceleration` + `rate` s (s its in-plane
+  // speed at the stage; rate ≥ 0, γ ḡ rate < 1) in the stages solved until
   // released, its contact dissipation is left out of the dissipation
   // quadrature (the stepper adds what the sub-steps integrate), and it is
   // not held to γλ ≤ max_gamma_lambda.
-  void prescribe(std::size_t site, std::array<double, 2> acceleration);
+  void prescribe(std::size_t site, std::array<double, 2> acceleration, double rate = 0.0);
   void release_all();
   // Site j's a_c as the last stage solved had it ((Σ − β)/(γ ḡ): the stage
   // equation's, not the law's at the stage's speed, which near rest is noise).
   std::array<double, 2> contact_acceleration(std::size_t j) const {
-    if (prescribed_[j]) return prescribed_acceleration_[j];
     const double scale = gamma_ * self_green_;
     return {(sigma_(2 * j) - beta_(2 * j)) / scale, (sigma_(2 * j + 1) - beta_(2 * j + 1)) / scale};
   }
@@ -167,6 +167,7 @@ class LatticeStageSolver {
   std::vector<double> predicted_speed_;
   std::vector<char> prescribed_;  // per site
   std::vector<std::array<double, 2>> prescribed_acceleration_;
+  std::vector<double> prescribed_rate_;
   std::vector<std::size_t> prescribed_sites_, refused_sites_;
 };
 

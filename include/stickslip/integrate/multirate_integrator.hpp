@@ -21,10 +21,13 @@
 //     attempt it repeats), then the polynomial through the coarse stages, a
 //     fast neighbour's part read off that neighbour's sub-steps.
 //  3. The coarse ESDIRK step of everything, each fast contact's law replaced
-//     by the line a(τ) = p0 + p1 τ with the same ∫a dτ and ∫τ a dτ as its
-//     sub-steps (and ∫τ a shifted by what its stand-in's displacement
-//     missed in the last iteration): its neighbours see its impulse and
-//     displacement.
+//     by a stand-in: the line ℓ(τ) = p0 + p1 τ with the same ∫ and ∫τ as
+//     its sub-steps' a_c + K u + C w (its node's own acceleration, all but
+//     Φ; ∫τ shifted by what its stand-in's displacement missed in the last
+//     iteration), less K u + C w along the coarse path. The coarse node then
+//     moves under Φ and ℓ alone, as the sub-steps did under Φ: its
+//     neighbours see its impulse and displacement. (Up to γ(−C − γK) = 1/2,
+//     H ~ 1 µs; beyond, the line through a_c alone.)
 //  4. If Φ along the coarse stages differs from the Φ the sub-steps used by
 //     more than the tolerance can absorb (H |ΔΦ| weighted, or |ΔΦ|/λ where
 //     the contact's own damping λ is faster), or the stand-in's displacement
