@@ -575,21 +575,13 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
     }
   };
 
-  // Start from the contact forces of the last stage solved, β = s0 + γ ḡ H a_c
-  // (the first stage: the law's at the predictor's speeds). A stuck
-  // contact's a_c balances the lattice's force, which the stages follow
-  // smoothly, where the law at a predicted speed near rest is noise (∂a_c/∂s
-  // ~ 1e15 s⁻¹): on a 30×30×10 block slip (multirate, 8 fast contacts on)
-  // Newton took 84 264 iterations instead of 175 899 and the run 1.27× less
-  // time; dirk's 15×15 one 94 279 instead of 115 397.
+  // Start from the predictor's contact forces: β = s0 + γ ḡ H a_c(s_pred).
   for (std::size_t i = 0; i < sites_; ++i) {
     const std::array<double, 2> s{predictor[site_w_[i]], predictor[site_w_[i] + 1]};
     const auto a =
         prescribed_[i]
             ? std::array<double, 2>{prescribed_acceleration_[i][0] + prescribed_rate_[i] * s[0],
                                     prescribed_acceleration_[i][1] + prescribed_rate_[i] * s[1]}
-        : last_known_
-            ? std::array<double, 2>{last_acceleration_(2 * i), last_acceleration_(2 * i + 1)}
             : system_.site_acceleration(i, s);
     trial_(2 * i) = gamma_self * a[0];
     trial_(2 * i + 1) = gamma_self * a[1];
@@ -603,11 +595,7 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
   bool krylov = false;
   for (int it = 0; it < kMaxIterations; ++it) {
     if (!std::isfinite(norm)) break;
-    if (norm <= kTolerance) {
-      last_acceleration_ = (sigma_ - beta_) / gamma_self;
-      last_known_ = true;
-      return it;
-    }
+    if (norm <= kTolerance) return it;
     const StepSolve solved = newton_step(krylov, norm, lu_price.krylov, lu_price.max_krylov);
     krylov = solved == StepSolve::krylov;
     const double trial_norm = backtrack(norm);

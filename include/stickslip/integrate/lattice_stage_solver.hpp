@@ -164,10 +164,6 @@ class LatticeStageSolver {
   // Krylov iterations of the first step after the near-field LU was built.
   Eigen::Index fresh_krylov_ = 0;
   std::vector<ContactStage> stages_;
-  // Each site's a_c as the last stage converged had it (solve_contacts
-  // starts from it), once one has.
-  Eigen::VectorXd last_acceleration_;
-  bool last_known_ = false;
   std::vector<double> predicted_speed_;
   std::vector<char> prescribed_;  // per site
   std::vector<std::array<double, 2>> prescribed_acceleration_;
