@@ -212,3 +212,42 @@ TEST_CASE("multirate's steps.csv says how many contacts each step left to their 
   CHECK(fast_steps == summary.solver_stats.fast_contact_steps);
   CHECK(substeps <= summary.solver_stats.substeps);  // the stats count retried attempts' too
 }
+
+TEST_CASE(
+    "multirate steps contacts apart from multirate_min_fast of them, and after such a step down "
+    "to an eighth as many",
+    "[multirate][steps]") {
+  // The pair with multirate_min_fast = 2: a step leaves its contacts to their
+  // sub-steps only when both are fast, or when one is and the step before
+  // left any (2 / kStayApart rounds up to 1). So no step has one contact
+  // apart right after a single-rate step, and a slip's tail, with one of the
+  // two still fast, stays apart.
+  Case c = test::two_contact_case();
+  c.run.t_end = 9e-4;  // through contact 0's first slip (~0.7 ms)
+  c.run.average_from = 0.0;
+  c.output.steps = true;
+  c.solver.method = Method::multirate;
+  c.solver.multirate_min_fast = 2;
+  test::TempDir dir("stickslip_test_multirate_stay_apart");
+  RunOptions options{dir.path / "run", false, true};
+  run_case(c, options);
+  std::ifstream in(options.out_dir / "steps.csv");
+  std::string line;
+  std::getline(in, line);
+  long previous = 0, both = 0, one_after_apart = 0;
+  while (std::getline(in, line)) {
+    double t, h, e, hl;
+    long fast, sub;
+    REQUIRE(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%ld,%ld", &t, &h, &e, &hl, &fast, &sub) ==
+            6);
+    INFO("t = " << t);
+    if (fast == 1) {
+      CHECK(previous > 0);  // only where the step before was apart
+      ++one_after_apart;
+    }
+    both += fast == 2;
+    previous = fast;
+  }
+  CHECK(both > 0);
+  CHECK(one_after_apart > 0);
+}

@@ -133,7 +133,14 @@ std::vector<std::size_t> MultirateIntegrator::fast_contacts(double H) const {
     }
     if (is_fast) fast.push_back(j);
   }
-  if (fast.size() < static_cast<std::size_t>(solver_.multirate_min_fast)) fast.clear();
+  // Once apart, a block slip's tail stays apart down to kStayApart times
+  // fewer: its arrests, each of which collapses a single-rate step, come
+  // after the slip proper (the loading's small clusters still step single
+  // rate, where stepping them apart cost more).
+  const bool apart = step_ && !step_->fast.empty();
+  const long fewest = apart ? std::max<long>(1, solver_.multirate_min_fast / kStayApart)
+                            : solver_.multirate_min_fast;
+  if (fast.size() < static_cast<std::size_t>(fewest)) fast.clear();
   return fast;
 }
 

@@ -92,7 +92,8 @@ struct SolverParams {
   long max_steps = 50'000'000;     // over the whole run
   // method = "multirate": the fewest fast contacts it steps apart on their
   // own sub-steps; with fewer, one step follows them all (single rate),
-  // since a lone slip costs less so (docs/PERFORMANCE.md, "Multirate").
+  // since a lone slip costs less so (docs/PERFORMANCE.md, "Multirate");
+  // after a step with contacts apart, an eighth as many (a block slip's tail).
   long multirate_min_fast = 64;
   // Largest accepted |energy-audit residual| at t_end; 0: 100 × rtol, or
   // 1e-4 for a fixed step. Beyond it the run fails and reports no μ.
