@@ -178,36 +178,59 @@ TEST_CASE("multirate on the Fig. 10b pair: the slips of dirk at a far tighter to
   }
 }
 
-TEST_CASE("multirate's steps.csv says how many contacts each step left to their sub-steps",
-          "[multirate][steps]") {
+namespace {
+
+// One row of steps.csv as multirate writes it.
+struct StepRow {
+  double t, h, error, h_lambda;
+  long fast, substeps;
+};
+
+// The pair through contact 0's first slip (~0.7 ms), multirate with
+// `min_fast`, and its steps.csv's header and rows.
+std::vector<StepRow> pair_steps(long min_fast, const std::string& name, Summary& summary,
+                                std::string& header) {
   Case c = test::two_contact_case();
-  c.run.t_end = 9e-4;  // through contact 0's first slip (~0.7 ms)
+  c.run.t_end = 9e-4;
   c.run.average_from = 0.0;
   c.output.steps = true;
   c.solver.method = Method::multirate;
-  c.solver.multirate_min_fast = 1;  // the pair's slips on sub-steps
-  test::TempDir dir("stickslip_test_multirate_steps");
+  c.solver.multirate_min_fast = min_fast;
+  test::TempDir dir(name);
   RunOptions options{dir.path / "run", false, true};
-  const Summary summary = run_case(c, options);
+  summary = run_case(c, options);
   std::ifstream in(options.out_dir / "steps.csv");
+  std::getline(in, header);
+  std::vector<StepRow> rows;
   std::string line;
-  std::getline(in, line);
-  CHECK(line == "t,h,error,h_lambda,fast_contacts,substeps");
-  long rows = 0, fast_rows = 0, substeps = 0, fast_steps = 0;
   while (std::getline(in, line)) {
-    double t, h, e, hl;
-    long fast, sub;
-    REQUIRE(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%ld,%ld", &t, &h, &e, &hl, &fast, &sub) ==
-            6);
-    CHECK(fast >= 0);
-    CHECK(fast <= 2);
-    CHECK((fast == 0) == (sub == 0));  // sub-steps exactly where a contact was fast
-    ++rows;
-    fast_rows += fast > 0;
-    fast_steps += fast;
-    substeps += sub;
+    StepRow r{};
+    REQUIRE(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%ld,%ld", &r.t, &r.h, &r.error, &r.h_lambda,
+                        &r.fast, &r.substeps) == 6);
+    rows.push_back(r);
   }
-  CHECK(rows == summary.solver_stats.steps);
+  return rows;
+}
+
+}  // namespace
+
+TEST_CASE("multirate's steps.csv says how many contacts each step left to their sub-steps",
+          "[multirate][steps]") {
+  Summary summary;
+  std::string header;
+  // min_fast 1: the pair's slips on sub-steps.
+  const auto rows = pair_steps(1, "stickslip_test_multirate_steps", summary, header);
+  CHECK(header == "t,h,error,h_lambda,fast_contacts,substeps");
+  long fast_rows = 0, substeps = 0, fast_steps = 0;
+  for (const StepRow& r : rows) {
+    CHECK(r.fast >= 0);
+    CHECK(r.fast <= 2);
+    CHECK((r.fast == 0) == (r.substeps == 0));  // sub-steps exactly where a contact was fast
+    fast_rows += r.fast > 0;
+    fast_steps += r.fast;
+    substeps += r.substeps;
+  }
+  CHECK(static_cast<long>(rows.size()) == summary.solver_stats.steps);
   CHECK(fast_rows > 0);
   CHECK(fast_steps == summary.solver_stats.fast_contact_steps);
   CHECK(substeps <= summary.solver_stats.substeps);  // the stats count retried attempts' too
@@ -222,31 +245,18 @@ TEST_CASE(
   // left any (2 / kStayApart rounds up to 1). So no step has one contact
   // apart right after a single-rate step, and a slip's tail, with one of the
   // two still fast, stays apart.
-  Case c = test::two_contact_case();
-  c.run.t_end = 9e-4;  // through contact 0's first slip (~0.7 ms)
-  c.run.average_from = 0.0;
-  c.output.steps = true;
-  c.solver.method = Method::multirate;
-  c.solver.multirate_min_fast = 2;
-  test::TempDir dir("stickslip_test_multirate_stay_apart");
-  RunOptions options{dir.path / "run", false, true};
-  run_case(c, options);
-  std::ifstream in(options.out_dir / "steps.csv");
-  std::string line;
-  std::getline(in, line);
+  Summary summary;
+  std::string header;
+  const auto rows = pair_steps(2, "stickslip_test_multirate_stay_apart", summary, header);
   long previous = 0, both = 0, one_after_apart = 0;
-  while (std::getline(in, line)) {
-    double t, h, e, hl;
-    long fast, sub;
-    REQUIRE(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%ld,%ld", &t, &h, &e, &hl, &fast, &sub) ==
-            6);
-    INFO("t = " << t);
-    if (fast == 1) {
+  for (const StepRow& r : rows) {
+    INFO("t = " << r.t);
+    if (r.fast == 1) {
       CHECK(previous > 0);  // only where the step before was apart
       ++one_after_apart;
     }
-    both += fast == 2;
-    previous = fast;
+    both += r.fast == 2;
+    previous = r.fast;
   }
   CHECK(both > 0);
   CHECK(one_after_apart > 0);
