@@ -247,9 +247,11 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
   std::array<std::vector<SubstepResult>, 2> fine{std::vector<SubstepResult>(nf),
                                                  std::vector<SubstepResult>(nf)};
   std::vector<Forcing> forcing(nf), next_forcing(nf);
-  // What each line's ∫τ a carries beyond the sub-steps': the coarse node
-  // feels its own lattice stiffness and damping along its own path, so its
-  // displacement would miss the sub-steps' by δu; each iteration closes it.
+  // What each line's ∫τ carries beyond the sub-steps': the coarse node moves
+  // under the Φ of the coarse stages, the sub-steps under the last
+  // iteration's (and, where its own K and C are not cancelled, under them
+  // along its own path), so its displacement would miss theirs by δu; each
+  // iteration closes it.
   std::vector<std::array<double, 2>> extra_moment(nf, {0.0, 0.0});
   // The stand-in cancels the node's own K u + C w along its coarse path and
   // passes on the sub-steps' a_c + K u + C w instead: the coarse node then
@@ -310,7 +312,7 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
         st.line1[q][k] = 12.0 * A1 / (H * H * H) - 6.0 * A0 / (H * H);
       }
     }
-    // 3. The coarse step, the fast contacts' law replaced by their lines.
+    // 3. The coarse step, the fast contacts' law replaced by their stand-ins.
     auto f0 = st.f0;
     for (std::size_t q = 0; q < nf; ++q) {
       const std::size_t j = st.fast[q];
