@@ -261,3 +261,27 @@ TEST_CASE(
   CHECK(both > 0);
   CHECK(one_after_apart > 0);
 }
+
+TEST_CASE("a multirate coarse step that would grow by less than half keeps its size",
+          "[multirate][steps]") {
+  // As ARKODE's fixed-step bounds [1, 1.5]: where the controller proposes a
+  // growth g = 0.9 e^(-1/4) (the third-order embedding's error e of the step
+  // just accepted) in [1, 1.5], the next step keeps H (and γ: the lattice is
+  // not refactored), or is shorter after a failed attempt; never longer.
+  Summary summary;
+  std::string header;
+  const auto rows = pair_steps(1, "stickslip_test_multirate_keep_step", summary, header);
+  long kept = 0, grown = 0;
+  for (std::size_t i = 1; i + 1 < rows.size(); ++i) {  // the last is cut to land on t_end
+    const double g = 0.9 * std::pow(rows[i - 1].error, -0.25);
+    const double ratio = rows[i].h / rows[i - 1].h;
+    INFO("t = " << rows[i].t << ", H " << rows[i - 1].h << " then " << rows[i].h << ", g " << g);
+    if (g > 1.0 + 1e-6 && g < 1.5 - 1e-6) {
+      CHECK(ratio <= 1.0 + 1e-9);
+      kept += std::abs(ratio - 1.0) <= 1e-9;
+    }
+    if (g > 1.5 + 1e-6 && g < 5.0) grown += std::abs(ratio - g) <= 1e-6 * g;
+  }
+  CHECK(kept > 50);
+  CHECK(grown > 0);  // beyond 1.5 the step grows as proposed
+}

@@ -403,9 +403,15 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
     for (std::size_t r = 0; r < n_; ++r) sum += error_[r] * error_[r];
     st.error = std::sqrt(sum / static_cast<double>(n_ - 4 * nf));
     if (!(st.error <= 1.0)) {
-      if (debug())
-        std::fprintf(stderr, "t=%.9e H=%.3e fast=%zu it=%d err=%.3g REJECT\n", t_, H, nf, iteration,
-                     st.error);
+      if (debug()) {
+        std::size_t worst = 0;
+        for (std::size_t r = 0; r < n_; ++r)
+          if (std::abs(error_[r]) > std::abs(error_[worst])) worst = r;
+        std::fprintf(stderr, "t=%.9e H=%.3e fast=%zu it=%d err=%.3g REJECT worst %s %.3g\n", t_, H,
+                     nf, iteration, st.error,
+                     system_.describe_component(static_cast<std::int64_t>(worst)).c_str(),
+                     error_[worst]);
+      }
       return Attempt::shrink;
     }
     // 4. The coupling: the Φ the next iteration would use against the one
@@ -684,7 +690,10 @@ double MultirateIntegrator::advance_to(double t_out, std::span<double> y) {
       const Attempt a = attempt(H);
       if (a == Attempt::accepted) {
         const double e = std::max(trial_->error, 1e-10);
-        const double growth = std::clamp(0.9 * std::pow(e, exponent), 0.2, failed ? 1.0 : 5.0);
+        double growth = std::clamp(0.9 * std::pow(e, exponent), 0.2, failed ? 1.0 : 5.0);
+        // Growth by less than kKeepStep keeps the step, so the lattice's
+        // factorization at this γ serves the next one too.
+        if (growth >= 1.0 && growth <= kKeepStep) growth = 1.0;
         // A step cut short to land on t_stop does not shrink the next.
         h_ = H < h_ ? std::max(h_, H * growth) : H * growth;
         accept(H);

@@ -43,7 +43,8 @@
 //     that leaves too few fast contacts: then the coarse norm alone holds,
 //     or the refused stage shrinks the step); each fast contact's sub-steps
 //     ≤ 1 on their own; the coupling and the miss ≤ 1. A step after a failed
-//     attempt does not grow.
+//     attempt does not grow; one that would grow by less than kKeepStep
+//     keeps its size (and the lattice's factorization).
 //  6. The fast contacts' in-plane u, w at t + H are their sub-steps'; their
 //     dissipation (integrated on the sub-steps) joins the quadrature.
 //
@@ -86,6 +87,12 @@ class MultirateIntegrator final : public Integrator {
   // block slip 1.34× faster (61.3 against 82 s), the whole 15×15 theta05
   // run 1.14× (35.7 against 40.6 s); at 16, 36.3 s (docs/PERFORMANCE.md).
   static constexpr long kStayApart = 8;
+  // A coarse step that could grow by a factor in [1, kKeepStep] keeps its
+  // size, as ARKODE's fixed-step bounds (the same [1, 1.5]) keep dirk's: a
+  // new H means a new γ, and LatticeSolver::set_gamma refactors every mode
+  // and rebuilds the surface Green's function. Whole theta05 1.09× faster,
+  // its block slip 1.09×, the 30×30 one 1.04× (docs/PERFORMANCE.md).
+  static constexpr double kKeepStep = 1.5;
 
  private:
   struct Step;  // one accepted coarse step: what outputs and events read
