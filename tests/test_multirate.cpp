@@ -151,10 +151,11 @@ TEST_CASE("multirate on the Fig. 10b pair: the slips of dirk at a far tighter to
   const double t_end = 1.2e-3;
   const Events reference = run(system, Method::dirk, 1e-10, t_end);
   REQUIRE(reference.list.size() >= 8);  // both contacts slip several times
-  // The same slips whether the partition steps a lone slipping contact on its
-  // own sub-steps (multirate_min_fast = 1) or only both together (2), or
-  // never (3: every step single rate).
-  for (const long min_fast : {1L, 2L, 3L}) {
+  // The same slips whether the partition steps a slipping contact on its own
+  // sub-steps (multirate_min_fast = 1), or only both together (16: each of
+  // the two, three sites apart, is lone and counts 8), or never (17: every
+  // step single rate).
+  for (const long min_fast : {1L, 16L, 17L}) {
     const Events mr = run(system, Method::multirate, 1e-7, t_end, min_fast);
     INFO("multirate_min_fast = " << min_fast);
     REQUIRE(mr.list.size() == reference.list.size());
@@ -168,11 +169,11 @@ TEST_CASE("multirate on the Fig. 10b pair: the slips of dirk at a far tighter to
     CHECK(worst < 2e-8);  // a slip lasts ~3 µs; its events move by < 1 % of that
     CHECK(mr.impulse == Approx(reference.impulse).epsilon(1e-6));
     CHECK(std::abs(mr.residual) < 100 * 1e-7);  // the audit's bound at this rtol
-    if (min_fast < 3) {
+    if (min_fast < 17) {
       CHECK(mr.stats.fast_contact_steps > 0);  // slips were taken on sub-steps
       CHECK(mr.stats.substeps > mr.stats.fast_contact_steps);
     } else {
-      CHECK(mr.stats.fast_contact_steps == 0);  // two contacts never make three
+      CHECK(mr.stats.fast_contact_steps == 0);  // two lone contacts count 16
       CHECK(mr.stats.substeps == 0);
     }
   }
@@ -186,12 +187,13 @@ struct StepRow {
   long fast, substeps;
 };
 
-// The pair through contact 0's first slip (~0.7 ms), multirate with
-// `min_fast`, and its steps.csv's header and rows.
+// The pair `c` (the Fig. 10b pair unless given) to t_end (the Fig. 10b pair
+// through contact 0's first slip, ~0.7 ms), multirate with `min_fast`, and
+// its steps.csv's header and rows.
 std::vector<StepRow> pair_steps(long min_fast, const std::string& name, Summary& summary,
-                                std::string& header) {
-  Case c = test::two_contact_case();
-  c.run.t_end = 9e-4;
+                                std::string& header, Case c = test::two_contact_case(),
+                                double t_end = 9e-4) {
+  c.run.t_end = t_end;
   c.run.average_from = 0.0;
   c.output.steps = true;
   c.solver.method = Method::multirate;
@@ -240,14 +242,14 @@ TEST_CASE(
     "multirate steps contacts apart from multirate_min_fast of them, and after such a step down "
     "to an eighth as many",
     "[multirate][steps]") {
-  // The pair with multirate_min_fast = 2: a step leaves its contacts to their
-  // sub-steps only when both are fast, or when one is and the step before
-  // left any (2 / kStayApart rounds up to 1). So no step has one contact
-  // apart right after a single-rate step, and a slip's tail, with one of the
-  // two still fast, stays apart.
+  // The pair with multirate_min_fast = 16, its two lone contacts counting 8
+  // each: a step leaves them to their sub-steps only when both are fast, or
+  // when one is and the step before left any (16 / kStayApart = 2). So no
+  // step has one contact apart right after a single-rate step, and a slip's
+  // tail, with one of the two still fast, stays apart.
   Summary summary;
   std::string header;
-  const auto rows = pair_steps(2, "stickslip_test_multirate_stay_apart", summary, header);
+  const auto rows = pair_steps(16, "stickslip_test_multirate_stay_apart", summary, header);
   long previous = 0, both = 0, one_after_apart = 0;
   for (const StepRow& r : rows) {
     INFO("t = " << r.t);
@@ -284,4 +286,28 @@ TEST_CASE("a multirate coarse step that would grow by less than half keeps its s
   }
   CHECK(kept > 50);
   CHECK(grown > 0);  // beyond 1.5 the step grows as proposed
+}
+
+TEST_CASE("multirate counts a lone fast contact eight times toward multirate_min_fast",
+          "[multirate][steps]") {
+  // multirate_min_fast = 3. The Fig. 10b pair's contacts, three sites apart,
+  // are lone: one slipping alone counts 8 and is stepped apart. Moved next to
+  // each other they are not: two count 2, and every step is single rate
+  // although both slip (first at ~0.97 ms).
+  Summary summary;
+  std::string header;
+  const auto lone = pair_steps(3, "stickslip_test_multirate_lone", summary, header);
+  long apart = 0;
+  for (const StepRow& r : lone) apart += r.fast > 0;
+  CHECK(apart > 0);
+  CHECK(summary.solver_stats.fast_contact_steps > 0);
+
+  Case side_by_side = test::two_contact_case();
+  side_by_side.interface.contacts[1].ix = 2;  // next to contact 0 at (1, 2)
+  const auto rows =
+      pair_steps(3, "stickslip_test_multirate_not_lone", summary, header, side_by_side, 1.1e-3);
+  for (const StepRow& r : rows) CHECK(r.fast == 0);
+  CHECK(summary.solver_stats.fast_contact_steps == 0);
+  REQUIRE(summary.events);
+  for (const auto& c : summary.events->per_contact) CHECK(c.slips > 0);  // both slip
 }

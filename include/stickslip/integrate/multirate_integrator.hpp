@@ -16,7 +16,8 @@
 //     step is single rate, as dirk's (a lone slip costs less so: its stand-in
 //     pinned the coarse step to its miss, with three coupling passes a step).
 //     After a step with contacts apart the bar is kStayApart times lower: a
-//     block slip's tail of arrests stays apart.
+//     block slip's tail of arrests stays apart. A lone contact (no other
+//     around it) counts kLoneShare: many lone slips at once go apart.
 //  2. Each fast contact's sub-steps over [t, t + H] under Φ(t), the rest of
 //     the lattice's acceleration on its node: first Φ's Taylor line at t (in
 //     a retry at the same H, the polynomial through Φ along the stages of the
@@ -93,6 +94,9 @@ class MultirateIntegrator final : public Integrator {
   // and rebuilds the surface Green's function. Whole theta05 1.09× faster,
   // its block slip 1.09×, the 30×30 one 1.04× (docs/PERFORMANCE.md).
   static constexpr double kKeepStep = 1.5;
+  // A lone fast contact (no other contact among the eight sites around its
+  // own) counts kLoneShare times toward multirate_min_fast (fast_contacts).
+  static constexpr long kLoneShare = 8;
 
  private:
   struct Step;  // one accepted coarse step: what outputs and events read
@@ -134,6 +138,7 @@ class MultirateIntegrator final : public Integrator {
   // (its own error or γλ): without this every step finds out again, one
   // failed coarse attempt per contact.
   std::vector<int> forced_fast_;
+  std::vector<char> lone_;  // per site: no other contact among the 8 around it
   static constexpr int kFastHold = 3;
   std::unique_ptr<Step> step_, trial_;  // the last accepted step, and the one being tried
   // z_ holds every stage of the attempt that the next one retries (attempt:
