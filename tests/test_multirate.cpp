@@ -290,24 +290,32 @@ TEST_CASE("a multirate coarse step that would grow by less than half keeps its s
 
 TEST_CASE("multirate counts a lone fast contact eight times toward multirate_min_fast",
           "[multirate][steps]") {
-  // multirate_min_fast = 3. The Fig. 10b pair's contacts, three sites apart,
-  // are lone: one slipping alone counts 8 and is stepped apart. Moved next to
-  // each other they are not: two count 2, and every step is single rate
-  // although both slip (first at ~0.97 ms).
+  // multirate_min_fast = 5. The Fig. 10b pair's contacts, three sites apart,
+  // are lone, and so are the two moved side by side (one other around each):
+  // one slipping counts 8 and is stepped apart. Four contacts in a 2×2 square
+  // are not (three others around each): they count 4, and every step is
+  // single rate although all four slip (first at ~1.49 ms).
   Summary summary;
   std::string header;
-  const auto lone = pair_steps(3, "stickslip_test_multirate_lone", summary, header);
-  long apart = 0;
-  for (const StepRow& r : lone) apart += r.fast > 0;
-  CHECK(apart > 0);
-  CHECK(summary.solver_stats.fast_contact_steps > 0);
-
   Case side_by_side = test::two_contact_case();
   side_by_side.interface.contacts[1].ix = 2;  // next to contact 0 at (1, 2)
+  for (const auto& [c, t_end] :
+       {std::pair{test::two_contact_case(), 9e-4}, std::pair{side_by_side, 1.1e-3}}) {
+    const auto lone = pair_steps(5, "stickslip_test_multirate_lone", summary, header, c, t_end);
+    long apart = 0;
+    for (const StepRow& r : lone) apart += r.fast > 0;
+    CHECK(apart > 0);
+    CHECK(summary.solver_stats.fast_contact_steps > 0);
+  }
+
+  Case square = test::two_contact_case();
+  square.interface.contacts = {
+      {1, 2, 4.75e-4, 0}, {2, 2, 2.09e-3, 0}, {1, 3, 4.75e-4, 0}, {2, 3, 2.09e-3, 0}};
   const auto rows =
-      pair_steps(3, "stickslip_test_multirate_not_lone", summary, header, side_by_side, 1.1e-3);
+      pair_steps(5, "stickslip_test_multirate_not_lone", summary, header, square, 1.6e-3);
   for (const StepRow& r : rows) CHECK(r.fast == 0);
   CHECK(summary.solver_stats.fast_contact_steps == 0);
   REQUIRE(summary.events);
-  for (const auto& c : summary.events->per_contact) CHECK(c.slips > 0);  // both slip
+  REQUIRE(summary.events->per_contact.size() == 4);
+  for (const auto& c : summary.events->per_contact) CHECK(c.slips > 0);  // all four slip
 }

@@ -43,9 +43,9 @@ bool debug() {
   return on;
 }
 
-// Per site: 1 where none of the eight sites around it (periodic in x and y)
-// holds a contact.
-std::vector<char> lone_sites(const System& s) {
+// Per site: 1 where at most `neighbours` of the eight sites around it
+// (periodic in x and y) hold a contact.
+std::vector<char> lone_sites(const System& s, int neighbours) {
   const int nx = s.nx(), ny = s.ny();
   std::vector<char> occupied(static_cast<std::size_t>(nx) * ny, 0);
   for (const FrictionSite& site : s.sites())
@@ -53,13 +53,15 @@ std::vector<char> lone_sites(const System& s) {
   std::vector<char> lone(s.sites().size(), 1);
   for (std::size_t j = 0; j < lone.size(); ++j) {
     const FrictionSite& site = s.sites()[j];
+    int count = 0;
     for (int dy = -1; dy <= 1; ++dy)
       for (int dx = -1; dx <= 1; ++dx) {
         if (dx == 0 && dy == 0) continue;
         const int x = (site.ix + dx + nx) % nx, y = (site.iy + dy + ny) % ny;
         if ((x != site.ix || y != site.iy) && occupied[static_cast<std::size_t>(x + nx * y)])
-          lone[j] = 0;
+          ++count;
       }
+    lone[j] = count <= neighbours;
   }
   return lone;
 }
@@ -94,7 +96,7 @@ MultirateIntegrator::MultirateIntegrator(const System& system, const SolverParam
       h_(0.0),
       substep_(system.sites().size(), 0.0),
       forced_fast_(system.sites().size(), 0),
-      lone_(lone_sites(system)),
+      lone_(lone_sites(system, kLoneNeighbours)),
       t_reached_(t0),
       b_(n_),
       weights_(n_),
@@ -162,10 +164,10 @@ std::vector<std::size_t> MultirateIntegrator::fast_contacts(double H) const {
   const bool apart = step_ && !step_->fast.empty();
   const long fewest = apart ? std::max<long>(1, solver_.multirate_min_fast / kStayApart)
                             : solver_.multirate_min_fast;
-  // A lone contact (no other contact among the eight sites around its own)
-  // counts kLoneShare times: it turns no slow neighbour fast under its slip,
-  // so it is cheap to step apart, while many lone slips at once each
-  // collapsed the single-rate step (60x60x10 at θ = 0.04).
+  // A lone contact (at most one other contact among the eight sites around
+  // its own) counts kLoneShare times: it turns few slow neighbours fast
+  // under its slip, so it is cheap to step apart, while many lone slips at
+  // once each collapsed the single-rate step (60x60x10 at θ = 0.04).
   long count = 0;
   for (const std::size_t j : fast) count += lone_[j] ? kLoneShare : 1;
   if (count < fewest) fast.clear();

@@ -94,7 +94,7 @@ struct SolverParams {
   // own sub-steps; with fewer, one step follows them all (single rate),
   // since a lone slip costs less so (docs/PERFORMANCE.md, "Multirate");
   // after a step with contacts apart, an eighth as many (a block slip's tail).
-  // A lone contact (no other contact around it) counts 8.
+  // A lone contact (at most one other contact around it) counts 8.
   long multirate_min_fast = 64;
   // Largest accepted |energy-audit residual| at t_end; 0: 100 × rtol, or
   // 1e-4 for a fixed step. Beyond it the run fails and reports no μ.
