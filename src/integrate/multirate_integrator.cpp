@@ -50,7 +50,7 @@ std::vector<char> lone_sites(const System& s, int neighbours) {
   std::vector<char> occupied(static_cast<std::size_t>(nx) * ny, 0);
   for (const FrictionSite& site : s.sites())
     occupied[static_cast<std::size_t>(site.ix + nx * site.iy)] = 1;
-  std::vector<char> lone(s.sites().size(), 1);
+  std::vector<char> lone(s.sites().size());
   for (std::size_t j = 0; j < lone.size(); ++j) {
     const FrictionSite& site = s.sites()[j];
     int count = 0;

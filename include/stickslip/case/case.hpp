@@ -92,7 +92,7 @@ struct SolverParams {
   long max_steps = 50'000'000;     // over the whole run
   // method = "multirate": the fewest fast contacts it steps apart on their
   // own sub-steps; with fewer, one step follows them all (single rate),
-  // since a lone slip costs less so (docs/PERFORMANCE.md, "Multirate");
+  // since a single slip costs less so (docs/PERFORMANCE.md, "Multirate");
   // after a step with contacts apart, an eighth as many (a block slip's tail).
   // A lone contact (at most one other contact around it) counts 8.
   long multirate_min_fast = 64;

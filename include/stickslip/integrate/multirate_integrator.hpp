@@ -13,7 +13,7 @@
 //
 //  1. Partition (fast_contacts): which contacts the coarse step cannot resolve.
 //     Fewer than [solver] multirate_min_fast of them and there are none: the
-//     step is single rate, as dirk's (a lone slip costs less so: its stand-in
+//     step is single rate, as dirk's (a single slip costs less so: its stand-in
 //     pinned the coarse step to its miss, with three coupling passes a step).
 //     After a step with contacts apart the bar is kStayApart times lower: a
 //     block slip's tail of arrests stays apart. A lone contact (at most one
