@@ -238,6 +238,29 @@ TEST_CASE("multirate's steps.csv says how many contacts each step left to their 
   CHECK(substeps <= summary.solver_stats.substeps);  // the stats count retried attempts' too
 }
 
+TEST_CASE("steps.csv has multirate's columns where method = \"auto\" chose multirate",
+          "[multirate][steps]") {
+  // The recorders are laid out by the method the run integrates with, not
+  // the case's "auto": the pair chooses multirate from multirate_min_fast 2.
+  Case c = test::two_contact_case();
+  c.run.t_end = 2e-5;
+  c.run.average_from = 0.0;
+  c.output.steps = true;
+  c.solver.method = Method::automatic;
+  c.solver.multirate_min_fast = 2;
+  test::TempDir dir("stickslip_test_multirate_auto_steps");
+  RunOptions options{dir.path / "run", false, true};
+  const Summary summary = run_case(c, options);
+  REQUIRE(summary.solver.at("method") == "multirate");
+  std::ifstream in(options.out_dir / "steps.csv");
+  std::string header, line;
+  std::getline(in, header);
+  CHECK(header == "t,h,error,h_lambda,fast_contacts,substeps");
+  long rows = 0;
+  while (std::getline(in, line)) ++rows;
+  CHECK(rows == summary.solver_stats.steps);
+}
+
 TEST_CASE(
     "multirate steps contacts apart from multirate_min_fast of them, and after such a step down "
     "to an eighth as many",

@@ -381,7 +381,7 @@ class StepsRecorder final : public Recorder {
  public:
   static constexpr const char* kTable = run_table::kSteps;
   explicit StepsRecorder(const RecorderSetup& s)
-      : multirate_(s.c.solver.method == Method::multirate), table_(open_table(s, schema())) {}
+      : multirate_(s.method == Method::multirate), table_(open_table(s, schema())) {}
   bool wants_steps() const override { return true; }
   void step(const StepRecord& r) override {
     const double row[6] = {r.t,

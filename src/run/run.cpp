@@ -360,10 +360,12 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
     tables->set_attribute("sundials_version", SUNDIALS_VERSION);
   }
   watched = selected_contacts(c.output.events, c.output.event_ids, contacts.size());
-  recorders = make_recorders(
-      {c, system, *tables, dir, y0, resume ? std::optional<double>(resume->t) : std::nullopt,
-       selected_contacts(c.output.traces, c.output.trace_ids, contacts.size()), watched,
-       resume ? resume->recorders : nlohmann::json::object()});
+  solver = resolve_solver(system, c.solver);
+  recorders =
+      make_recorders({c, system, solver.params.method, *tables, dir, y0,
+                      resume ? std::optional<double>(resume->t) : std::nullopt,
+                      selected_contacts(c.output.traces, c.output.trace_ids, contacts.size()),
+                      watched, resume ? resume->recorders : nlohmann::json::object()});
 
   IntegratorOptions integrator_options;
   integrator_options.watched_contacts = watched;
@@ -386,7 +388,6 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
       for (Recorder* r : step_recorders) r->step(step);
     };
 
-  solver = resolve_solver(system, c.solver);
   stats_before = resume ? resume->stats : SolverStats{};
   // max_steps counts the steps before a restart too: the integrator's budget is what is left.
   solver.params.max_steps = std::max(1L, c.solver.max_steps - stats_before.steps);

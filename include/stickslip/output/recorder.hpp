@@ -29,6 +29,9 @@ namespace stickslip {
 struct RecorderSetup {
   const Case& c;
   const System& system;
+  // The method the run integrates with: the case's, or what "auto" chose
+  // (never auto), so a table lays out what that method records.
+  Method method;
   TableStore& tables;
   std::filesystem::path dir;              // where the tables are read back from
   std::span<const double> initial_state;  // at t = 0 (a restart's too)
