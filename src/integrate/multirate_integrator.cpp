@@ -23,6 +23,7 @@ struct MultirateIntegrator::Step {
   // node's own K u + C w along its coarse path where attempt cancels them.
   std::vector<std::array<double, 2>> line0, line1;
   double error = 0.0;
+  double miss = 0.0;  // the hand-back's at acceptance (0 with no contact apart)
   int coupling_iterations = 0;
 };
 
@@ -184,6 +185,7 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
   st.H = H;
   st.y0 = y_;
   st.error = std::numeric_limits<double>::quiet_NaN();
+  st.miss = 0.0;
   st.fast = fast_contacts(H);
   const std::size_t nf = st.fast.size();
   st.line0.assign(nf, {});
@@ -277,12 +279,19 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
   std::array<std::vector<SubstepResult>, 2> fine{std::vector<SubstepResult>(nf),
                                                  std::vector<SubstepResult>(nf)};
   std::vector<Forcing> forcing(nf), next_forcing(nf);
-  // What each line's ∫τ carries beyond the sub-steps': the coarse node moves
-  // under the Φ of the coarse stages, the sub-steps under the last
-  // iteration's (and, where its own K and C are not cancelled, under them
-  // along its own path), so its displacement would miss theirs by δu; each
-  // iteration closes it.
-  std::vector<std::array<double, 2>> extra_moment(nf, {0.0, 0.0});
+  // The coarse node's end displacement is what the coarse level gives it
+  // (u0 + w0 H, Φ along the stages, and, where its own K and C are not
+  // cancelled, those along its path) plus its line's H A0 − A1. The first
+  // line takes A1 from the sub-steps; the coarse level's part then differs
+  // from theirs (they moved under the last iteration's Φ), and the coarse
+  // node misses their end by δu. Each later line sets A1 so that the coarse
+  // level's part of the last iteration (`coarse_part`) plus the line lands
+  // on these sub-steps' end. A stuck contact takes a change of Φ up in its
+  // friction: its sub-steps' end hardly moves, but their moments do, so a
+  // line shifted by the last miss alone counted that change twice, came back
+  // with the miss's sign flipped, and the miss then set the coarse step
+  // (60x60x10 at θ = 0.04: ~8e-8 s, docs/PERFORMANCE.md).
+  std::vector<std::array<double, 2>> coarse_part(nf, {0.0, 0.0}), line_part(nf, {0.0, 0.0});
   // The stand-in cancels the node's own K u + C w along its coarse path and
   // passes on the sub-steps' a_c + K u + C w instead: the coarse node then
   // moves as the sub-steps did but for Φ, where the line through a_c alone
@@ -334,10 +343,13 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
       stats_.substep_failures += current[q].rejected;
       // The line with ∫a = A0 and ∫τ a = A1 over [0, H]: the coarse node
       // then passes on the sub-steps' impulse and their displacement.
+      const SubstepPoint& end = current[q].points.back();
       for (int k = 0; k < 2; ++k) {
         const double A0 = cancel_own ? current[q].own_impulse[k] : current[q].impulse[k];
-        const double A1 =
-            (cancel_own ? current[q].own_moment[k] : current[q].moment[k]) + extra_moment[q][k];
+        const double A1 = iteration == 0
+                              ? (cancel_own ? current[q].own_moment[k] : current[q].moment[k])
+                              : H * A0 + coarse_part[q][k] - end.x[k];
+        line_part[q][k] = H * A0 - A1;
         st.line0[q][k] = 4.0 * A0 / H - 6.0 * A1 / (H * H);
         st.line1[q][k] = 12.0 * A1 / (H * H * H) - 6.0 * A0 / (H * H);
       }
@@ -471,7 +483,7 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
         // sized 75 % of a 15×15 block slip's coarse steps.)
         miss = std::max(miss, (c.neighbour_damping + 0.5 * c.neighbour_stiffness * H) *
                                   std::abs(du) * weights_[wx + k]);
-        extra_moment[q][k] -= du;  // next iteration: ∫∫a += δu
+        coarse_part[q][k] = z_end[ux + k] - line_part[q][k];
       }
       next_forcing[q] = forcing_from(q, current);
       double memory = 0.0;
@@ -495,6 +507,7 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
         st.error = miss;
         return Attempt::shrink;
       }
+      st.miss = miss;
       st.error = std::max(st.error, miss);
       st.fine = std::move(current);
       return Attempt::accepted;
@@ -577,6 +590,7 @@ void MultirateIntegrator::record(double error) {
   long substeps = 0;
   for (const auto& fine : step_->fine) substeps += fine.substeps;
   r.substeps = substeps;
+  r.miss = step_->miss;
   options_.on_step(r);
 }
 

@@ -384,13 +384,14 @@ class StepsRecorder final : public Recorder {
       : multirate_(s.method == Method::multirate), table_(open_table(s, schema())) {}
   bool wants_steps() const override { return true; }
   void step(const StepRecord& r) override {
-    const double row[6] = {r.t,
+    const double row[7] = {r.t,
                            r.h,
                            r.error,
                            r.h_lambda,
                            static_cast<double>(r.fast_contacts),
-                           static_cast<double>(r.substeps)};
-    table_->append(std::span(row, multirate_ ? 6 : 4));
+                           static_cast<double>(r.substeps),
+                           r.miss};
+    table_->append(std::span(row, multirate_ ? 7 : 4));
   }
   void flush() override { table_->flush(); }
 
@@ -400,6 +401,7 @@ class StepsRecorder final : public Recorder {
     if (multirate_) {
       t.columns.push_back(integer("fast_contacts"));
       t.columns.push_back(integer("substeps"));
+      t.columns.push_back(real("miss", "1"));
     }
     return t;
   }

@@ -26,8 +26,9 @@
 //  3. The coarse ESDIRK step of everything, each fast contact's law replaced
 //     by a stand-in: the line ℓ(τ) = p0 + p1 τ with the same ∫ and ∫τ as
 //     its sub-steps' a_c + K u + C w (its node's own acceleration, all but
-//     Φ; ∫τ shifted by what its stand-in's displacement missed in the last
-//     iteration), less K u + C w along the coarse path. The coarse node then
+//     Φ; from the second iteration ∫τ such that the coarse level's part of
+//     the node's displacement in the last iteration plus the line's lands on
+//     the sub-steps' end), less K u + C w along the coarse path. The coarse node then
 //     moves under Φ and ℓ alone, as the sub-steps did under Φ: its
 //     neighbours see its impulse and displacement. (Up to γ(−C − γK) = 1/2,
 //     H ~ 1 µs; beyond, the line through a_c alone.)

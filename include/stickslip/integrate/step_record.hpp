@@ -15,6 +15,11 @@ struct StepRecord {
   // multirate: the contacts this step left to their own sub-steps, and those
   // sub-steps (0 for the other methods).
   long fast_contacts = 0, substeps = 0;
+  // multirate: how far the coarse node of a fast contact missed its
+  // sub-steps' end, as its neighbours felt it, weighted as a local error
+  // (≤ 1; 0 where no contact was apart). error is the larger of it and the
+  // coarse estimate, so it says which of the two sized the step.
+  double miss = 0.0;
 };
 
 }  // namespace stickslip
