@@ -481,6 +481,30 @@ TEST_CASE("a refused restart names the keys that differ and changes nothing", "[
   CHECK_THAT(patch.err, Catch::Contains("interface.patch: 1 in the checkpoint, 2 in the case"));
 }
 
+TEST_CASE("a restart refuses a table whose columns this build does not write, changing nothing",
+          "[restart]") {
+  // As steps.csv of a multirate run written by a build before its miss column.
+  test::Sandbox box("stickslip_restart_columns_");
+  const fs::path file = box.write("tiny.toml", std::string(kTiny) + "[output]\nsteps = true\n");
+  interrupt(read_case(file), {.out_dir = box.work / "run", .quiet = true});
+  const fs::path steps = box.work / "run" / "steps.csv";
+  std::string text;
+  {
+    std::ifstream in(steps);
+    text.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const auto first_newline = text.find('\n');
+  REQUIRE(text.substr(0, first_newline) == "t,h,error,h_lambda");
+  std::ofstream(steps) << "t,h,error" << text.substr(first_newline);
+  const auto before = box.snapshot();
+  const auto r = box.run({"run", "tiny.toml", "--restart", "run", "--quiet"});
+  INFO(r.err);
+  CHECK(r.code == 2);
+  CHECK_THAT(r.err, Catch::Contains("run/steps.csv: its columns are t,h,error, where this build "
+                                    "writes t,h,error,h_lambda"));
+  CHECK(box.snapshot() == before);
+}
+
 TEST_CASE("a fresh start in a directory holding an interrupted run points to --restart",
           "[restart][cli]") {
   test::Sandbox box("stickslip_resumable_");

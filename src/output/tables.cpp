@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <string>
 
 #include "hdf5_tables.hpp"
 #include "stickslip/output/writers.hpp"
@@ -106,6 +107,17 @@ class CsvStore final : public TableStore {
   std::unique_ptr<Table> resume(const TableSpec& spec, double t) override {
     if (!fs::exists(file(spec)))
       throw OutputError(file(spec).string() + ": missing; the run cannot continue without it");
+    // Rows of other columns would follow its header unnoticed (a build whose
+    // table has a column more or less: steps.csv of multirate).
+    std::string header, expected;
+    std::ifstream in(file(spec));
+    std::getline(in, header);
+    for (std::size_t i = 0; i < spec.columns.size(); ++i)
+      expected += (i ? "," : "") + spec.columns[i].name;
+    if (header != expected)
+      throw OutputError(file(spec).string() + ": its columns are " + header +
+                        ", where this build writes " + expected +
+                        "; continue the run with the build that wrote it");
     keep_rows_up_to(file(spec), t);
     return std::make_unique<CsvTable>(spec, file(spec), true);
   }

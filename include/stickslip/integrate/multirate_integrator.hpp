@@ -28,8 +28,8 @@
 //     its sub-steps' a_c + K u + C w (its node's own acceleration, all but
 //     Φ; from the second iteration ∫τ such that the coarse level's part of
 //     the node's displacement in the last iteration plus the line's lands on
-//     the sub-steps' end), less K u + C w along the coarse path. The coarse node then
-//     moves under Φ and ℓ alone, as the sub-steps did under Φ: its
+//     the sub-steps' end), less K u + C w along the coarse path. The coarse
+//     node then moves under Φ and ℓ alone, as the sub-steps did under Φ: its
 //     neighbours see its impulse and displacement. (Up to γ(−C − γK) = 1/2,
 //     H ~ 1 µs; beyond, the line through a_c alone.)
 //  4. If Φ along the coarse stages differs from the Φ the sub-steps used by
