@@ -152,9 +152,9 @@ TEST_CASE("multirate on the Fig. 10b pair: the slips of dirk at a far tighter to
   const Events reference = run(system, Method::dirk, 1e-10, t_end);
   REQUIRE(reference.list.size() >= 8);  // both contacts slip several times
   // The same slips whether the partition steps a slipping contact on its own
-  // sub-steps (multirate_min_fast = 1), or only both together (16: each of
-  // the two, three sites apart, is lone and counts 8), or never (17: every
-  // step single rate).
+  // sub-steps (multirate_min_fast = 1; and 16: both contacts, three sites
+  // apart, are lone and count 16, so one alone goes apart), or never (17:
+  // every step single rate).
   for (const long min_fast : {1L, 16L, 17L}) {
     const Events mr = run(system, Method::multirate, 1e-7, t_end, min_fast);
     INFO("multirate_min_fast = " << min_fast);
@@ -262,18 +262,34 @@ TEST_CASE("steps.csv has multirate's columns where method = \"auto\" chose multi
   CHECK(rows == summary.solver_stats.steps);
 }
 
+namespace {
+
+// The Fig. 10b pair with three contacts in an L beside it, none of which is
+// lone (two others around each), with v* far above the drive speed (they
+// creep, never fast): two lone contacts of five, so a lone contact counts 8
+// and no more.
+Case pair_beside_triple() {
+  Case c = test::two_contact_case();
+  for (const auto [ix, iy] : {std::pair{1, 4}, std::pair{2, 4}, std::pair{1, 5}})
+    c.interface.contacts.push_back({ix, iy, 1.0, 0});
+  return c;
+}
+
+}  // namespace
+
 TEST_CASE(
     "multirate steps contacts apart from multirate_min_fast of them, and after such a step down "
     "to an eighth as many",
     "[multirate][steps]") {
-  // The pair with multirate_min_fast = 16, its two lone contacts counting 8
-  // each: a step leaves them to their sub-steps only when both are fast, or
-  // when one is and the step before left any (16 / kStayApart = 2). So no
-  // step has one contact apart right after a single-rate step, and a slip's
-  // tail, with one of the two still fast, stays apart.
+  // multirate_min_fast = 16 and the pair's two lone contacts counting 8
+  // each (pair_beside_triple): a step leaves contacts to their sub-steps
+  // only when both are fast, or when one is and the step before left any
+  // (16 / kStayApart = 2). So no step has one contact apart right after a
+  // single-rate step, and a slip's tail, with one still fast, stays apart.
   Summary summary;
   std::string header;
-  const auto rows = pair_steps(16, "stickslip_test_multirate_stay_apart", summary, header);
+  const auto rows =
+      pair_steps(16, "stickslip_test_multirate_stay_apart", summary, header, pair_beside_triple());
   long previous = 0, both = 0, one_after_apart = 0;
   for (const StepRow& r : rows) {
     INFO("t = " << r.t);
@@ -281,11 +297,32 @@ TEST_CASE(
       CHECK(previous > 0);  // only where the step before was apart
       ++one_after_apart;
     }
-    both += r.fast == 2;
+    both += r.fast >= 2;
     previous = r.fast;
   }
   CHECK(both > 0);
   CHECK(one_after_apart > 0);
+}
+
+TEST_CASE(
+    "where most contacts are lone and they count multirate_min_fast, one lone slip goes apart by "
+    "itself",
+    "[multirate][steps]") {
+  // The pair alone: both contacts lone, counting 16. From multirate_min_fast
+  // 16 a single fast contact is stepped apart right after a single-rate step
+  // (at 16 with the triple beside it, above, never); from 17 they do not
+  // count enough, and every step is single rate.
+  Summary summary;
+  std::string header;
+  long alone = 0, previous = 0;
+  for (const StepRow& r : pair_steps(16, "stickslip_test_multirate_alone", summary, header)) {
+    alone += r.fast == 1 && previous == 0;
+    previous = r.fast;
+  }
+  CHECK(alone > 0);
+  for (const StepRow& r : pair_steps(17, "stickslip_test_multirate_none", summary, header))
+    CHECK(r.fast == 0);
+  CHECK(summary.solver_stats.fast_contact_steps == 0);
 }
 
 TEST_CASE("a multirate coarse step that would grow by less than half keeps its size",
@@ -314,18 +351,25 @@ TEST_CASE("a multirate coarse step that would grow by less than half keeps its s
 
 TEST_CASE("multirate counts a lone fast contact eight times toward multirate_min_fast",
           "[multirate][steps]") {
-  // multirate_min_fast = 5. The Fig. 10b pair's contacts, three sites apart,
-  // are lone, and so are the two moved side by side (one other around each):
-  // one slipping counts 8 and is stepped apart. Four contacts in a 2×2 square
-  // are not (three others around each): they count 4, and every step is
-  // single rate although all four slip (first at ~1.49 ms).
+  // The Fig. 10b pair's contacts, three sites apart, are lone. Beside the
+  // triple (pair_beside_triple: 2 of 5 contacts lone) one slipping counts 8,
+  // and at multirate_min_fast = 8 it is stepped apart, while the triple's
+  // contacts count 1 each. So are the two moved side by side (one other
+  // around each; at 5). Four contacts in a 2×2 square are not (three others
+  // around each): they count 4, and at 5 every step is single rate although
+  // all four slip (first at ~1.49 ms).
   Summary summary;
   std::string header;
   Case side_by_side = test::two_contact_case();
   side_by_side.interface.contacts[1].ix = 2;  // next to contact 0 at (1, 2)
-  for (const auto& [c, t_end] :
-       {std::pair{test::two_contact_case(), 9e-4}, std::pair{side_by_side, 1.1e-3}}) {
-    const auto lone = pair_steps(5, "stickslip_test_multirate_lone", summary, header, c, t_end);
+  struct Lone {
+    Case c;
+    double t_end;
+    long min_fast;
+  };
+  for (const Lone& l : {Lone{pair_beside_triple(), 9e-4, 8}, Lone{side_by_side, 1.1e-3, 5}}) {
+    const auto lone =
+        pair_steps(l.min_fast, "stickslip_test_multirate_lone", summary, header, l.c, l.t_end);
     long apart = 0;
     for (const StepRow& r : lone) apart += r.fast > 0;
     CHECK(apart > 0);

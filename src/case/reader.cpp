@@ -458,8 +458,9 @@ const std::vector<Entry>& schema() {
       {"solver", "multirate_min_fast", integer(&Case::solver, &SolverParams::multirate_min_fast, 1),
        "",
        "method = \"multirate\": the fewest fast contacts it steps on their own sub-steps, a lone "
-       "one (at most one contact on the eight sites around it) counting 8; with fewer, the whole "
-       "step follows them (single rate); after a step with contacts apart, an eighth as many"},
+       "one (at most one contact on the eight sites around it) counting 8, or the whole bar where "
+       "most contacts are lone and they count it; with fewer, the whole step follows them (single "
+       "rate); after a step with contacts apart, an eighth as many"},
       {"solver", "audit_bound", real(&Case::solver, &SolverParams::audit_bound, kPositive), "",
        "largest accepted |energy-audit residual| at t_end, beyond which the run fails; unset: 100 "
        "× rtol, or 1e-4 for a fixed step"},

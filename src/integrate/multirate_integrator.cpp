@@ -69,6 +69,23 @@ std::vector<char> lone_sites(const System& s, int neighbours) {
 
 }  // namespace
 
+long MultirateIntegrator::weighted_contacts(const System& system) {
+  long total = 0;
+  for (const char lone : lone_sites(system, kLoneNeighbours)) total += lone ? kLoneShare : 1;
+  return total;
+}
+
+std::vector<long> MultirateIntegrator::contact_weights(const System& system, long min_fast) {
+  const std::vector<char> lone = lone_sites(system, kLoneNeighbours);
+  const auto lone_count = std::count(lone.begin(), lone.end(), char{1});
+  const bool one_goes_apart = 2 * static_cast<std::size_t>(lone_count) >= lone.size() &&
+                              weighted_contacts(system) >= min_fast;
+  std::vector<long> weight(lone.size());
+  for (std::size_t j = 0; j < lone.size(); ++j)
+    weight[j] = lone[j] ? (one_goes_apart ? min_fast : kLoneShare) : 1;
+  return weight;
+}
+
 MultirateIntegrator::MultirateIntegrator(const System& system, const SolverParams& solver,
                                          std::span<const double> y0, double t0, double t_stop,
                                          IntegratorOptions options)
@@ -97,7 +114,7 @@ MultirateIntegrator::MultirateIntegrator(const System& system, const SolverParam
       h_(0.0),
       substep_(system.sites().size(), 0.0),
       forced_fast_(system.sites().size(), 0),
-      lone_(lone_sites(system, kLoneNeighbours)),
+      weight_(contact_weights(system, solver.multirate_min_fast)),
       t_reached_(t0),
       b_(n_),
       weights_(n_),
@@ -166,11 +183,11 @@ std::vector<std::size_t> MultirateIntegrator::fast_contacts(double H) const {
   const long fewest = apart ? std::max<long>(1, solver_.multirate_min_fast / kStayApart)
                             : solver_.multirate_min_fast;
   // A lone contact (at most one other contact among the eight sites around
-  // its own) counts kLoneShare times: it turns few slow neighbours fast
-  // under its slip, so it is cheap to step apart, while many lone slips at
-  // once each collapsed the single-rate step (60x60x10 at θ = 0.04).
+  // its own) counts more (contact_weights): it turns few slow neighbours
+  // fast under its slip, so it is cheap to step apart, while lone slips each
+  // collapsed the single-rate step (60x60x10 at θ = 0.04).
   long count = 0;
-  for (const std::size_t j : fast) count += lone_[j] ? kLoneShare : 1;
+  for (const std::size_t j : fast) count += weight_[j];
   if (count < fewest) fast.clear();
   return fast;
 }

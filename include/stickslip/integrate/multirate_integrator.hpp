@@ -17,7 +17,8 @@
 //     pinned the coarse step to its miss, with three coupling passes a step).
 //     After a step with contacts apart the bar is kStayApart times lower: a
 //     block slip's tail of arrests stays apart. A lone contact (at most one
-//     other around it) counts kLoneShare: many lone slips at once go apart.
+//     other around it) counts kLoneShare: many lone slips at once go apart;
+//     where most contacts are lone, one alone does (contact_weights).
 //  2. Each fast contact's sub-steps over [t, t + H] under Φ(t), the rest of
 //     the lattice's acceleration on its node: first Φ's Taylor line at t (in
 //     a retry at the same H, the polynomial through Φ along the stages of the
@@ -102,6 +103,20 @@ class MultirateIntegrator final : public Integrator {
   static constexpr long kLoneShare = 8;
   static constexpr int kLoneNeighbours = 1;
 
+  // The contacts counted toward multirate_min_fast, a lone one kLoneShare
+  // times: whether a system has contacts enough for multirate to step apart
+  // (choose_method).
+  static long weighted_contacts(const System& system);
+  // What each contact counts toward `min_fast` when it is fast
+  // (fast_contacts): 1, a lone one kLoneShare, and `min_fast` itself (one
+  // lone slip alone goes apart) where at least half the contacts are lone
+  // and weighted_contacts reaches min_fast. There each lone slip collapsed
+  // the single-rate step, and stepping it apart paid: 60x60x10 θ = 0.04
+  // window 1.09x, 30x30 1.34x, 15x15 (9 contacts) 1.14x; where few are lone
+  // it cost (15x15 θ = 0.498, 3.5 % lone: 1.35x slower), and so on a pair,
+  // whose 16 falls short of the default 64 (docs/PERFORMANCE.md).
+  static std::vector<long> contact_weights(const System& system, long min_fast);
+
  private:
   struct Step;  // one accepted coarse step: what outputs and events read
   enum class Attempt { accepted, retry, shrink };
@@ -142,7 +157,8 @@ class MultirateIntegrator final : public Integrator {
   // (its own error or γλ): without this every step finds out again, one
   // failed coarse attempt per contact.
   std::vector<int> forced_fast_;
-  std::vector<char> lone_;  // per site: at most kLoneNeighbours contacts among the 8 around it
+  std::vector<long>
+      weight_;  // per site: what it counts toward multirate_min_fast (contact_weights)
   static constexpr int kFastHold = 3;
   std::unique_ptr<Step> step_, trial_;  // the last accepted step, and the one being tried
   // z_ holds every stage of the attempt that the next one retries (attempt:
