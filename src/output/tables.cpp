@@ -51,6 +51,13 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// A CSV table's header line (without its newline): the column names.
+std::string csv_header(const std::vector<Column>& columns) {
+  std::string header;
+  for (std::size_t i = 0; i < columns.size(); ++i) header += (i ? "," : "") + columns[i].name;
+  return header;
+}
+
 // A table as a CSV file: the header, then a row per line; each value printed
 // as its column says (reals with the column's significant digits).
 class CsvTable final : public Table {
@@ -61,8 +68,7 @@ class CsvTable final : public Table {
       throw OutputError(file.string() + ": cannot open for " + (append ? "appending" : "writing"));
     for (const Column& c : columns_) formats_.push_back("%." + std::to_string(c.digits) + "g");
     if (append) return;
-    for (std::size_t i = 0; i < columns_.size(); ++i) out_ << (i ? "," : "") << columns_[i].name;
-    out_ << '\n';
+    out_ << csv_header(columns_) << '\n';
   }
   void append(std::span<const double> row) override {
     check_row(row, columns_.size());
@@ -109,11 +115,10 @@ class CsvStore final : public TableStore {
       throw OutputError(file(spec).string() + ": missing; the run cannot continue without it");
     // Rows of other columns would follow its header unnoticed (a build whose
     // table has a column more or less: steps.csv of multirate).
-    std::string header, expected;
+    std::string header;
     std::ifstream in(file(spec));
     std::getline(in, header);
-    for (std::size_t i = 0; i < spec.columns.size(); ++i)
-      expected += (i ? "," : "") + spec.columns[i].name;
+    const std::string expected = csv_header(spec.columns);
     if (header != expected)
       throw OutputError(file(spec).string() + ": its columns are " + header +
                         ", where this build writes " + expected +
