@@ -28,36 +28,34 @@ MethodChoice choose_method(const System& system, const SolverParams& solver) {
             "method = \"auto\": bdf, since no contact has v* below the drive "
             "speed (steady sliding or creep, where its steps grow; "
             "docs/PERFORMANCE.md)"};
-  // multirate where there are contacts enough for it to step apart
-  // (multirate_min_fast, a lone contact counting 8: in a block slip those
-  // with v* above the drive speed slip too; where most are lone, each lone
-  // slip goes apart). Fewer, its steps are single rate and cost what dirk's
-  // do. A 30x30x10 block slip costs 2.9x less (176 against 514 s), a whole
-  // 15x15 point at theta 0.498 the same (207 against 206 s), a 30x30
-  // theta 0.04 window of lone slips 1.49x less (docs/PERFORMANCE.md,
-  // "Multirate"). Beyond the dense LU's reach too, where both go matrix
-  // free: on 60x60x10 at coverage 0.498 the first 40 us of a block slip cost
-  // dirk 6.1x multirate's CPU (875 against 143 s). Not with patches, which
-  // it does not step.
+  // multirate where there are contacts enough for it to step them apart
+  // (multirate_min_fast; in a block slip those with v* above the drive speed
+  // slip too): fewer slipping together, its steps are single rate
+  // and cost what dirk's do (15x15x10, theta 0.04: 39.7 against 40.6 s),
+  // more, a block slip costs 2.9x less (30x30x10: 176 against 514 s) and a
+  // whole 15x15 point at theta 0.498 the same (207 against 206 s;
+  // docs/PERFORMANCE.md, "Multirate"). Beyond the dense LU's reach too,
+  // where both go matrix free: on 60x60x10 at coverage 0.498 the first 40 us
+  // of a block slip cost dirk 6.1x multirate's CPU (875 against 143 s). Not
+  // with patches, which it does not step. Contacts are counted one each, not
+  // a lone one as the partition does: on 15x15x10 at theta 0.04 (9 lone
+  // contacts) multirate, each lone slip apart, took 1.3x less time than dirk
+  // at rtol 1e-5 but was 68x further from a converged run in mu, and at
+  // equal accuracy was no faster (docs/PERFORMANCE.md, "Multirate").
   const std::size_t contacts = system.contacts().size();
-  const long weighted = system.patch() == 1 ? MultirateIntegrator::weighted_contacts(system) : 0;
-  if (system.patch() == 1 && weighted >= solver.multirate_min_fast)
-    return {
-        Method::multirate,
-        "method = \"auto\": multirate, since " + std::to_string(weak) + " of " +
-            std::to_string(contacts) +
-            " contacts have v* below the drive speed and stick-slip, and they count " +
-            std::to_string(weighted) + " (a lone one " +
-            std::to_string(MultirateIntegrator::kLoneShare) +
-            ") toward [solver] multirate_min_fast = " + std::to_string(solver.multirate_min_fast) +
-            ": slips on their own sub-steps cost a fraction of dirk's global steps "
-            "(docs/PERFORMANCE.md)"};
-  return {Method::dirk,
-          "method = \"auto\": dirk, since " + std::to_string(weak) + " of " +
-              std::to_string(contacts) +
-              " contacts have v* below the drive speed and stick-slip, too few for multirate to "
-              "step apart ([solver] multirate_min_fast), where dirk is the fastest at equal "
-              "accuracy (docs/PERFORMANCE.md)"};
+  if (system.patch() == 1 && contacts >= static_cast<std::size_t>(solver.multirate_min_fast))
+    return {Method::multirate,
+            "method = \"auto\": multirate, since " + std::to_string(weak) + " of " +
+                std::to_string(contacts) +
+                " contacts have v* below the drive speed and stick-slip, and there are at least "
+                "[solver] multirate_min_fast = " +
+                std::to_string(solver.multirate_min_fast) +
+                " to slip together: a block slip on their own sub-steps costs a fraction of "
+                "dirk's global steps (docs/PERFORMANCE.md)"};
+  return {Method::dirk, "method = \"auto\": dirk, since " + std::to_string(weak) + " of " +
+                            std::to_string(contacts) +
+                            " contacts have v* below the drive speed and stick-slip, where dirk "
+                            "is the fastest at equal accuracy (docs/PERFORMANCE.md)"};
 }
 
 ResolvedSolver resolve_solver(const System& system, const SolverParams& given) {

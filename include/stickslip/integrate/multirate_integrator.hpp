@@ -104,8 +104,7 @@ class MultirateIntegrator final : public Integrator {
   static constexpr int kLoneNeighbours = 1;
 
   // The contacts counted toward multirate_min_fast, a lone one kLoneShare
-  // times: whether a system has contacts enough for multirate to step apart
-  // (choose_method).
+  // times (contact_weights).
   static long weighted_contacts(const System& system);
   // What each contact counts toward `min_fast` when it is fast
   // (fast_contacts): 1, a lone one kLoneShare, and `min_fast` itself (one
