@@ -69,17 +69,12 @@ std::vector<char> lone_sites(const System& s, int neighbours) {
 
 }  // namespace
 
-long MultirateIntegrator::weighted_contacts(const System& system) {
-  long total = 0;
-  for (const char lone : lone_sites(system, kLoneNeighbours)) total += lone ? kLoneShare : 1;
-  return total;
-}
-
 std::vector<long> MultirateIntegrator::contact_weights(const System& system, long min_fast) {
   const std::vector<char> lone = lone_sites(system, kLoneNeighbours);
   const auto lone_count = std::count(lone.begin(), lone.end(), char{1});
-  const bool one_goes_apart = 2 * static_cast<std::size_t>(lone_count) >= lone.size() &&
-                              weighted_contacts(system) >= min_fast;
+  const auto others = static_cast<long>(lone.size()) - lone_count;
+  const bool one_goes_apart = 2 * lone_count >= static_cast<long>(lone.size()) &&
+                              kLoneShare * lone_count + others >= min_fast;
   std::vector<long> weight(lone.size());
   for (std::size_t j = 0; j < lone.size(); ++j)
     weight[j] = lone[j] ? (one_goes_apart ? min_fast : kLoneShare) : 1;

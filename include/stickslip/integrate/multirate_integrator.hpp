@@ -103,17 +103,16 @@ class MultirateIntegrator final : public Integrator {
   static constexpr long kLoneShare = 8;
   static constexpr int kLoneNeighbours = 1;
 
-  // The contacts counted toward multirate_min_fast, a lone one kLoneShare
-  // times (contact_weights).
-  static long weighted_contacts(const System& system);
   // What each contact counts toward `min_fast` when it is fast
   // (fast_contacts): 1, a lone one kLoneShare, and `min_fast` itself (one
   // lone slip alone goes apart) where at least half the contacts are lone
-  // and weighted_contacts reaches min_fast. There each lone slip collapsed
-  // the single-rate step, and stepping it apart paid: 60x60x10 θ = 0.04
-  // window 1.09x, 30x30 1.34x, 15x15 (9 contacts) 1.14x; where few are lone
-  // it cost (15x15 θ = 0.498, 3.5 % lone: 1.35x slower), and so on a pair,
-  // whose 16 falls short of the default 64 (docs/PERFORMANCE.md).
+  // and all of them, so counted, reach min_fast. There each lone slip
+  // collapsed the single-rate step, and stepping it apart paid at the same
+  // rtol: 60x60x10 θ = 0.04 window 1.09x, 30x30 1.34x, 15x15 (9 contacts)
+  // 1.14x (though on 15x15 no faster than dirk at equal accuracy, so `auto`
+  // leaves that to dirk); where few are lone it cost (15x15 θ = 0.498,
+  // 3.5 % lone: 1.35x slower), and so on a pair, whose 16 falls short of
+  // the default 64 (docs/PERFORMANCE.md).
   static std::vector<long> contact_weights(const System& system, long min_fast);
 
  private:
@@ -156,8 +155,7 @@ class MultirateIntegrator final : public Integrator {
   // (its own error or γλ): without this every step finds out again, one
   // failed coarse attempt per contact.
   std::vector<int> forced_fast_;
-  std::vector<long>
-      weight_;  // per site: what it counts toward multirate_min_fast (contact_weights)
+  std::vector<long> weight_;  // per site: its count toward multirate_min_fast
   static constexpr int kFastHold = 3;
   std::unique_ptr<Step> step_, trial_;  // the last accepted step, and the one being tried
   // z_ holds every stage of the attempt that the next one retries (attempt:
