@@ -1,7 +1,10 @@
 #!/usr/bin/python3
 """Does μ's drop with load survive as the block grows? The drop
 1 − μ(0.498)/μ(0.04) against 1/L (L = Nx = Ny), with its error over seeds, and
-a straight-line extrapolation to L → ∞ where three or more widths have a drop.
+a straight-line extrapolation to L → ∞ where three or more widths have a drop
+with an error. A lattice with one seed at a load takes that load's error from
+the seeds' spread on the next narrower lattice (hollow marker, "(assumed)" in
+the table).
 
 Usage: /usr/bin/python3 plots/finite_size.py SWEEP_DIR
        (the output of `stickslip sweep cases/finite_size.toml`)
@@ -75,19 +78,30 @@ def main() -> int:
 
     rows, drops, seeds = [], [], {}
     lattices = sorted({k[:3] for k in groups})
+    spread = {}  # (nz, θ) -> the s.d. over seeds of the widest lattice so far that has one
     for lat in lattices:
         stats = {}
+        assumed = False
         for theta in (LOW, HIGH):
             g = groups.get(lat + (theta,))
             if not g:
                 continue
             mu, sd, sem = mean_sem([p["mu"] for p in g])
+            if sd is not None:
+                spread[(lat[2], theta)] = sd
+            elif (lat[2], theta) in spread:
+                # One seed: its error is taken as the seeds' spread on the
+                # next narrower lattice (s.e. of one seed = s.d.), said so in
+                # the table and the plot.
+                sem = spread[(lat[2], theta)]
+                assumed = True
             periods = [p["period"] for p in g if p["period"]]
             spreads = [p["spread"] for p in g if p["spread"] is not None]
             stats[theta] = (mu, sem)
             rows.append({
                 "lattice": "x".join(map(str, lat)), "coverage": theta, "seeds": len(g),
-                "mu": f"{mu:.6g}", "mu_sd": f"{sd:.3g}" if sd else "", "mu_sem": f"{sem:.3g}" if sem else "",
+                "mu": f"{mu:.6g}", "mu_sd": f"{sd:.3g}" if sd else "",
+                "mu_sem": (f"{sem:.3g}" + (" (assumed)" if sd is None else "")) if sem else "",
                 "F_f_spread": f"{sum(spreads) / len(spreads):.3g}" if spreads else "",
                 "period_ms": f"{1e3 * sum(periods) / len(periods):.3g}" if periods else "",
                 "cycles": min(p["cycles"] for p in g),
@@ -99,7 +113,7 @@ def main() -> int:
             err = None
             if lo_sem is not None and hi_sem is not None:
                 err = (hi / lo) * math.hypot(hi_sem / hi, lo_sem / lo)
-            drops.append((lat, drop, err))
+            drops.append((lat, drop, err, assumed))
             seeds[lat] = (len(groups[lat + (LOW,)]), len(groups[lat + (HIGH,)]))
 
     table = sweep_dir / "finite_size.csv"
@@ -108,40 +122,52 @@ def main() -> int:
         w.writeheader()
         w.writerows(rows)
         f.write("\nlattice,drop,drop_error\n")
-        for lat, drop, err in drops:
-            f.write(f"{'x'.join(map(str, lat))},{drop:.4g},{'' if err is None else f'{err:.2g}'}\n")
+        for lat, drop, err, assumed in drops:
+            f.write(f"{'x'.join(map(str, lat))},{drop:.4g},"
+                    f"{'' if err is None else f'{err:.2g}'}{' (assumed)' if assumed else ''}\n")
     for r in rows:
         print(", ".join(f"{k}={v}" for k, v in r.items()))
 
     fig, ax = plt.subplots(figsize=(6.5, 4))
-    thin = [(lat, d, e) for lat, d, e in drops if lat[2] == 10]
-    thick = [(lat, d, e) for lat, d, e in drops if lat[2] != 10]
+    thin = [x for x in drops if x[0][2] == 10]
+    thick = [x for x in drops if x[0][2] != 10]
     for series, marker, label in ((thin, "o", "Nz = 10"), (thick, "s", "Nz scaled with the width")):
-        if not series:
-            continue
-        x = [1 / lat[0] for lat, _, _ in series]
-        y = [100 * d for _, d, _ in series]
-        yerr = [100 * e if e is not None else 0 for _, _, e in series]
-        ax.errorbar(x, y, yerr=yerr, marker=marker, ls="none", capsize=3, label=label)
-        for (lat, d, e), xi in zip(series, x):
-            ax.annotate(f"{lat[0]}×{lat[1]}×{lat[2]}\n{seeds[lat][0]} + {seeds[lat][1]} seeds",
-                        (xi, 100 * d), textcoords="offset points", xytext=(6, 4), fontsize=7)
-            print(f"{'x'.join(map(str, lat))}: drop {100 * d:.1f} %"
-                  + (f" ± {100 * e:.1f} %" if e is not None else " (one seed: no error)"))
+        for kind in (False, True):  # measured errors, then assumed ones (hollow)
+            part = [x for x in series if x[3] == kind]
+            if not part:
+                continue
+            x = [1 / lat[0] for lat, _, _, _ in part]
+            y = [100 * d for _, d, _, _ in part]
+            yerr = [100 * e if e is not None else 0 for _, _, e, _ in part]
+            ax.errorbar(x, y, yerr=yerr, marker=marker, ls="none", capsize=3,
+                        mfc="white" if kind else None, color="C0" if marker == "o" else "C1",
+                        label=label + (", one seed at a load: error assumed from the narrower"
+                                       " lattice's seeds" if kind else ""))
+            for (lat, d, e, _), xi in zip(part, x):
+                ax.annotate(f"{lat[0]}×{lat[1]}×{lat[2]}\n{seeds[lat][0]} + {seeds[lat][1]} seeds",
+                            (xi, 100 * d), textcoords="offset points", xytext=(6, 4), fontsize=7)
+                print(f"{'x'.join(map(str, lat))}: drop {100 * d:.1f} %"
+                      + (f" ± {100 * e:.1f} %" if e is not None else " (one seed: no error)")
+                      + (" (error assumed)" if kind else ""))
     # Weighted straight line in 1/L through the Nz = 10 widths that have an
     # error; its intercept is the drop of an infinitely wide block.
-    fit = [(1 / lat[0], d, e) for lat, d, e in thin if e]
+    fit = [(1 / lat[0], d, e) for lat, d, e, _ in thin if e]
+    any_assumed = any(a for lat, _, e, a in thin if e)
     if len(fit) >= 3:
         x, y, e = (np.array(v) for v in zip(*fit))
         coef, cov = np.polyfit(x, y, 1, w=1 / e, cov="unscaled")
         slope, intercept = coef
         sigma = math.sqrt(cov[1, 1])
         xs = np.linspace(0, max(x) * 1.05, 50)
+        chi2 = float(np.sum(((y - (intercept + slope * x)) / e) ** 2))
         ax.plot(xs, 100 * (intercept + slope * xs), "k--", lw=1,
-                label=f"fit: L → ∞ drop {100 * intercept:.1f} % ± {100 * sigma:.1f} %")
-        print(f"extrapolated drop at L -> infinity: {100 * intercept:.2f} % +- {100 * sigma:.2f} %")
+                label=f"weighted fit in 1/L: L → ∞ drop {100 * intercept:.1f} % ± {100 * sigma:.1f} %"
+                      f" (χ² {chi2:.2g}, {len(fit) - 2} d.o.f.)" + (", an error assumed" if any_assumed else ""))
+        print(f"extrapolated drop at L -> infinity: {100 * intercept:.2f} % +- {100 * sigma:.2f} %"
+              f" (chi2 {chi2:.3g} for {len(fit) - 2} degrees of freedom)"
+              + (" with an assumed error" if any_assumed else ""))
         with table.open("a") as f:
-            f.write(f"infinity,{intercept:.4g},{sigma:.2g}\n")
+            f.write(f"infinity,{intercept:.4g},{sigma:.2g}{' (assumed)' if any_assumed else ''}\n")
     else:
         print(f"no extrapolation: {len(fit)} width(s) with an error bar at Nz = 10 (3 needed)")
         # Top centre: the axes fit the points, so a corner can hold one.
@@ -153,7 +179,7 @@ def main() -> int:
     ax.set_title("Finite size: μ's drop with load, v = 1e-3 m/s (mean ± s.e. over seeds)",
                  fontsize=9)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7, loc="upper left")
     fig.tight_layout()
     for ext in ("png", "pdf"):
         fig.savefig(sweep_dir / f"finite_size.{ext}", dpi=120)

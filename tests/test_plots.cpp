@@ -529,18 +529,26 @@ TEST_CASE("patch_size.py: mu and F_f's spread per patch size and coverage, means
   CHECK(fs::exists(box.work / "out" / "p" / "patch_size.csv"));
 }
 
-TEST_CASE("finite_size.py: the drop per width with its propagated error, and its extrapolation",
-          "[plots]") {
-  Sandbox box("stickslip_plots_");
-  // Three seeds per width and coverage whose μ are known: at θ = 0.04 the
-  // mean is 5, at θ = 0.498 it is 5 (1 − drop(L)) with drop(L) = 0.1 + 0.6/L,
-  // exactly linear in 1/L, so any weighted straight line meets 0.1 at L → ∞.
-  const auto drop = [](int width) { return 0.1 + 0.6 / width; };
+namespace {
+
+// finite_size.py's input: seeds whose μ are known. At θ = 0.04 the mean is 5,
+// at θ = 0.498 it is 5 (1 − drop(L)) with drop(L) = 0.1 + 0.6/L, exactly
+// linear in 1/L, so any weighted straight line meets 0.1 at L → ∞. Seed k
+// lies 0.05 (k − 2) from the mean: sd 0.05 over seeds 1–3, seed 2 on it.
+double finite_size_drop(int width) {
+  return 0.1 + 0.6 / width;
+}
+
+void write_finite_size_points(const fs::path& dir, const std::vector<int>& seeds_60_wide_low) {
   for (int width : {15, 30, 60})
     for (double coverage : {0.04, 0.498})
       for (int seed : {1, 2, 3}) {
-        const double mean = coverage < 0.1 ? 5.0 : 5.0 * (1 - drop(width));
-        const double mu = mean + 0.05 * (seed - 2);  // sd 0.05, s.e. 0.05/√3
+        if (width == 60 && coverage < 0.1 &&
+            std::find(seeds_60_wide_low.begin(), seeds_60_wide_low.end(), seed) ==
+                seeds_60_wide_low.end())
+          continue;
+        const double mean = coverage < 0.1 ? 5.0 : 5.0 * (1 - finite_size_drop(width));
+        const double mu = mean + 0.05 * (seed - 2);
         const nlohmann::json summary = {
             {"case",
              {{"lattice", {{"nx", width}, {"ny", width}, {"nz", 10}}},
@@ -550,12 +558,21 @@ TEST_CASE("finite_size.py: the drop per width with its propagated error, and its
             {"F_f_spread", 0.1},
             {"wall_seconds", 3600.0},
             {"contacts", 100}};
-        const fs::path dir = box.work / "fs" /
-                             ("coverage=" + std::to_string(coverage) +
-                              "_seed=" + std::to_string(seed) + "_nx=" + std::to_string(width));
-        fs::create_directories(dir);
-        std::ofstream(dir / "summary.json") << summary.dump();
+        const fs::path point =
+            dir / ("coverage=" + std::to_string(coverage) + "_seed=" + std::to_string(seed) +
+                   "_nx=" + std::to_string(width));
+        fs::create_directories(point);
+        std::ofstream(point / "summary.json") << summary.dump();
       }
+}
+
+}  // namespace
+
+TEST_CASE("finite_size.py: the drop per width with its propagated error, and its extrapolation",
+          "[plots]") {
+  Sandbox box("stickslip_plots_");
+  const auto drop = finite_size_drop;
+  write_finite_size_points(box.work / "fs", {1, 2, 3});
   const auto r = python(box, "finite_size.py", "fs");
   INFO(r.out);
   REQUIRE(r.code == 0);
@@ -577,4 +594,32 @@ TEST_CASE("finite_size.py: the drop per width with its propagated error, and its
   CHECK(std::stod(m[2].str()) > 0.0);
   // The block-scale period: (to − from)/(crossings − 1) = 10 ms.
   CHECK_THAT(slurp(box.work / "fs" / "finite_size.csv"), Catch::Contains(",10,4,"));
+}
+
+TEST_CASE(
+    "finite_size.py: a width with one seed at a load takes that load's error from the narrower "
+    "lattice's seeds, and says so",
+    "[plots]") {
+  Sandbox box("stickslip_plots_");
+  write_finite_size_points(box.work / "fs", {2});  // 60 wide, θ = 0.04: seed 2 alone, μ = 5
+  const auto r = python(box, "finite_size.py", "fs");
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  check_png(box.work / "fs" / "finite_size.png");
+  // Its s.e. is the 30-wide seeds' sd at θ = 0.04 (0.05), not theirs over √3;
+  // θ = 0.498 keeps its own three seeds.
+  const double ratio = 1 - finite_size_drop(60);
+  const double error = ratio * std::hypot(0.05 / std::sqrt(3.0) / (5 * ratio), 0.05 / 5);
+  std::smatch m;
+  REQUIRE(std::regex_search(r.out, m,
+                            std::regex(R"(60x60x10: drop (\S+) % ± (\S+) % \(error assumed\))")));
+  CHECK(std::stod(m[1].str()) == Approx(100 * finite_size_drop(60)).margin(0.05));
+  CHECK(std::stod(m[2].str()) == Approx(100 * error).margin(0.05));
+  // Three widths with an error: the line, flagged as resting on an assumed one.
+  REQUIRE(std::regex_search(
+      r.out, m, std::regex(R"(L -> infinity: (\S+) % \+- (\S+) % .*with an assumed error)")));
+  CHECK(std::stod(m[1].str()) == Approx(10.0).margin(0.01));
+  const std::string csv = slurp(box.work / "fs" / "finite_size.csv");
+  CHECK_THAT(csv, Catch::Contains("60x60x10,0.04,1,5,,0.05 (assumed)"));
+  CHECK_THAT(csv, Catch::Contains("(assumed)\ninfinity,"));
 }
