@@ -25,6 +25,9 @@ struct MultirateIntegrator::Step {
   double error = 0.0;
   double miss = 0.0;  // the hand-back's at acceptance (0 with no contact apart)
   int coupling_iterations = 0;
+  // The stand-ins' work on their coarse paths plus the contacts' dissipation
+  // on their sub-steps [J] (SolverStats::partition_work).
+  double partition_work = 0.0;
 };
 
 namespace {
@@ -522,6 +525,25 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
       st.miss = miss;
       st.error = std::max(st.error, miss);
       st.fine = std::move(current);
+      // What the energy audit will see of the partition: the lattice worked
+      // on each stand-in a = ℓ − K u − C w (or ℓ) along the coarse stages,
+      // the contact dissipated along its sub-steps.
+      st.partition_work = 0.0;
+      for (std::size_t q = 0; q < nf; ++q) {
+        const std::size_t j = st.fast[q];
+        const auto ux = u_of(system_, j), wx = w_of(system_, j);
+        const NodeCoupling& c = couplings_[j];
+        for (int l = 0; l < s; ++l) {
+          const auto& z = z_[static_cast<std::size_t>(l)];
+          const double tau = stage_tau[static_cast<std::size_t>(l)];
+          for (int k = 0; k < 2; ++k) {
+            const double own = cancel_own ? c.stiffness * z[ux + k] + c.damping * z[wx + k] : 0.0;
+            const double a = st.line0[q][k] + st.line1[q][k] * tau - own;
+            st.partition_work += H * table_.b[static_cast<std::size_t>(l)] * m * a * z[wx + k];
+          }
+        }
+        st.partition_work += st.fine[q].points.back().dissipated;
+      }
       return Attempt::accepted;
     }
     ++stats_.coupling_iterations;
@@ -564,6 +586,7 @@ void MultirateIntegrator::accept(double H) {
   std::swap(step_, trial_);
   ++stats_.steps;
   stats_.fast_contact_steps += static_cast<long>(step_->fast.size());
+  stats_.partition_work += step_->partition_work;
   stats_.last_step = H;
   if (!roots_.empty()) sample_speeds();
   record(step_->error);

@@ -18,6 +18,7 @@ SolverStats& operator+=(SolverStats& a, const SolverStats& b) {
   a.substep_failures += b.substep_failures;
   a.fast_contact_steps += b.fast_contact_steps;
   a.coupling_iterations += b.coupling_iterations;
+  a.partition_work += b.partition_work;
   if (b.last_step != 0.0) a.last_step = b.last_step;
   return a;
 }

@@ -49,7 +49,10 @@
 //     attempt does not grow; one that would grow by less than kKeepStep
 //     keeps its size (and the lattice's factorization).
 //  6. The fast contacts' in-plane u, w at t + H are their sub-steps'; their
-//     dissipation (integrated on the sub-steps) joins the quadrature.
+//     dissipation (integrated on the sub-steps) joins the quadrature. The
+//     lattice worked on the stand-ins along the coarse path instead: the
+//     gap is the energy the partition makes (SolverStats::partition_work),
+//     which the energy audit's residual holds.
 //
 // Outputs inside a step are interpolated (cubic Hermite; a fast contact's from
 // its sub-steps), and stick/slip events are located on the fine solution of a

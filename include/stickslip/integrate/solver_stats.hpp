@@ -27,18 +27,25 @@ struct SolverStats {
   long substep_failures = 0;
   long fast_contact_steps = 0;
   long coupling_iterations = 0;
+  // multirate: the energy the partition itself makes [J]. The lattice does
+  // work on a fast contact's stand-in along the node's coarse path, the
+  // contact dissipates along its sub-steps'; where its force changes within
+  // a coarse step the two differ. Summed over the run this is, but for the
+  // coarse steps' own error, the energy audit's residual times the drive's
+  // work (docs/PERFORMANCE.md, "The μ floor, what it is and what it is not").
+  double partition_work = 0.0;
 };
 
 // JSON with one field per member, both ways (summary.json, checkpoints). A
 // field missing from an older file reads as zero (krylov_iterations and the
-// multirate counts came later).
+// multirate counts and partition_work came later).
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(SolverStats, steps, step_attempts, rhs_explicit,
                                                 rhs_implicit, newton_iterations,
                                                 convergence_failures, linear_setups,
                                                 jacobian_evaluations, krylov_iterations,
                                                 error_test_failures, root_evaluations, last_step,
                                                 substeps, substep_failures, fast_contact_steps,
-                                                coupling_iterations)
+                                                coupling_iterations, partition_work)
 
 // The statistics of a run continued from a checkpoint: counts add up, the
 // last step is the later run's.
