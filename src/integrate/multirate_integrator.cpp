@@ -525,31 +525,38 @@ MultirateIntegrator::Attempt MultirateIntegrator::attempt(double H) {
       st.miss = miss;
       st.error = std::max(st.error, miss);
       st.fine = std::move(current);
-      // What the energy audit will see of the partition: the lattice worked
-      // on each stand-in a = ℓ − K u − C w (or ℓ) along the coarse stages,
-      // the contact dissipated along its sub-steps.
-      st.partition_work = 0.0;
-      for (std::size_t q = 0; q < nf; ++q) {
-        const std::size_t j = st.fast[q];
-        const auto ux = u_of(system_, j), wx = w_of(system_, j);
-        const NodeCoupling& c = couplings_[j];
-        for (int l = 0; l < s; ++l) {
-          const auto& z = z_[static_cast<std::size_t>(l)];
-          const double tau = stage_tau[static_cast<std::size_t>(l)];
-          for (int k = 0; k < 2; ++k) {
-            const double own = cancel_own ? c.stiffness * z[ux + k] + c.damping * z[wx + k] : 0.0;
-            const double a = st.line0[q][k] + st.line1[q][k] * tau - own;
-            st.partition_work += H * table_.b[static_cast<std::size_t>(l)] * m * a * z[wx + k];
-          }
-        }
-        st.partition_work += st.fine[q].points.back().dissipated;
-      }
+      st.partition_work = partition_work(st, cancel_own);
       return Attempt::accepted;
     }
     ++stats_.coupling_iterations;
     std::swap(forcing, next_forcing);  // reads `current`, which the next iteration keeps
   }
   return Attempt::shrink;
+}
+
+// What the energy audit sees of the partition in the step `st` just solved:
+// the lattice worked on each stand-in a = ℓ − K u − C w (ℓ alone where its
+// own K and C are not cancelled) along the coarse stages z_, while the
+// contact dissipated along its sub-steps.
+double MultirateIntegrator::partition_work(const Step& st, bool cancel_own) const {
+  const double m = system_.mass();
+  double work = 0.0;
+  for (std::size_t q = 0; q < st.fast.size(); ++q) {
+    const std::size_t j = st.fast[q];
+    const auto ux = u_of(system_, j), wx = w_of(system_, j);
+    const NodeCoupling& c = couplings_[j];
+    for (int l = 0; l < table_.stages; ++l) {
+      const auto& z = z_[static_cast<std::size_t>(l)];
+      const double tau = table_.c[static_cast<std::size_t>(l)] * st.H;
+      const double weight = st.H * table_.b[static_cast<std::size_t>(l)];
+      for (int k = 0; k < 2; ++k) {
+        const double own = cancel_own ? c.stiffness * z[ux + k] + c.damping * z[wx + k] : 0.0;
+        work += weight * m * (st.line0[q][k] + st.line1[q][k] * tau - own) * z[wx + k];
+      }
+    }
+    work += st.fine[q].points.back().dissipated;
+  }
+  return work;
 }
 
 void MultirateIntegrator::accept(double H) {

@@ -126,6 +126,7 @@ class MultirateIntegrator final : public Integrator {
   Attempt attempt(double H);
   void begin_step_derivative();
   void accept(double H);
+  double partition_work(const Step& st, bool cancel_own) const;
   std::vector<std::size_t> fast_contacts(double H) const;
   void interpolate(double t, std::span<double> y) const;
   // The earliest stick/slip crossing of a watched contact in (t_from, t_to];
