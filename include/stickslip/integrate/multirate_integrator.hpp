@@ -51,8 +51,9 @@
 //  6. The fast contacts' in-plane u, w at t + H are their sub-steps'; their
 //     dissipation (integrated on the sub-steps) joins the quadrature. The
 //     lattice worked on the stand-ins along the coarse path instead: the
-//     gap is the energy the partition makes (SolverStats::partition_work),
-//     which the energy audit's residual holds.
+//     gap is energy the partition makes (SolverStats::partition_work): the
+//     energy audit's residual where slips are lone, a part of it in block
+//     slips.
 //
 // Outputs inside a step are interpolated (cubic Hermite; a fast contact's from
 // its sub-steps), and stick/slip events are located on the fine solution of a

@@ -30,9 +30,10 @@ struct SolverStats {
   // multirate: the energy the partition itself makes [J]. The lattice does
   // work on a fast contact's stand-in along the node's coarse path, the
   // contact dissipates along its sub-steps'; where its force changes within
-  // a coarse step the two differ. Summed over the run this is, but for the
-  // coarse steps' own error, the energy audit's residual times the drive's
-  // work (docs/PERFORMANCE.md, "The μ floor, what it is and what it is not").
+  // a coarse step the two differ. Where slips are lone, this summed over the
+  // run is, but for the coarse steps' own error, the energy audit's residual
+  // times the drive's work; in block slips it is a part of it
+  // (docs/PERFORMANCE.md, "The μ floor, what it is and what it is not").
   double partition_work = 0.0;
 };
 
