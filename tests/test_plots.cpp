@@ -623,3 +623,88 @@ TEST_CASE(
   CHECK_THAT(csv, Catch::Contains("60x60x10,0.04,1,5,,0.05 (assumed)"));
   CHECK_THAT(csv, Catch::Contains("(assumed)\ninfinity,"));
 }
+
+namespace {
+
+// A run with events, made up: F_f a sawtooth rising from 1 to 2 N over 10 ms
+// and falling at 15, 25 and 35 ms (samples every 0.1 ms, window [10, 40] ms),
+// ten contacts, and slips (onset, arrest in ms) laid out so that each block
+// slip's contacts are known.
+void write_census_run(const fs::path& dir, const std::string& events) {
+  fs::create_directories(dir);
+  const nlohmann::json summary = {
+      {"case",
+       {{"lattice", {{"nx", 15}, {"ny", 15}, {"nz", 10}}}, {"output", {{"events", events}}}}},
+      {"contacts", 10},
+      {"average_from", 0.010},
+      {"F_N", 0.01},
+      {"theta", 0.5}};
+  std::ofstream(dir / "summary.json") << summary.dump();
+  std::ofstream friction(dir / "friction.csv");
+  friction << "t,F_f,mu_inst\n";
+  for (int i = 0; i <= 400; ++i) {
+    const double t_ms = 0.1 * i;
+    const double since_fall = 0.1 * ((i + 50) % 100);  // [ms]: falls at 5, 15, 25, 35 ms
+    const double f = 1.0 + since_fall / 10.0;
+    friction << t_ms * 1e-3 << "," << f << "," << f / 0.01 << "\n";
+  }
+  if (events == "none") return;
+  struct Slip {
+    int contact;
+    double onset_ms, arrest_ms;
+  };
+  // At 5 ms: before the window. At 15 ms: 0 and 1 overlap the drop (14.9 to
+  // 15.0 ms), 2 too; 3 only through 2, and 0 slips again within the chain: 5
+  // slips, 4 contacts. At 20 ms: 5 alone, while the block loads. At 25 ms: 2
+  // contacts; 7 slips after a quiet moment, on its own.
+  std::vector<Slip> slips = {
+      {8, 5.0, 5.01},   {0, 14.88, 14.93}, {1, 14.92, 14.97}, {2, 14.96, 15.2},  {3, 15.15, 15.3},
+      {0, 15.1, 15.12}, {5, 20.0, 20.01},  {4, 24.85, 24.95}, {6, 24.95, 25.02}, {7, 25.5, 25.6}};
+  for (int c = 0; c < 10; ++c) slips.push_back({c, 34.9, 35.05});  // at 35 ms: all ten
+  std::ofstream table(dir / "slips.csv");
+  table << "t_end,contact,t_start,duration,slip,peak_speed,load_start,load_end,load_drop,"
+           "F_f_start,F_f_end,F_f_drop\n";
+  for (const Slip& s : slips)
+    table << s.arrest_ms * 1e-3 << "," << s.contact << "," << s.onset_ms * 1e-3 << ","
+          << (s.arrest_ms - s.onset_ms) * 1e-3 << ",0,0,0,0,0,0,0,0\n";
+}
+
+}  // namespace
+
+TEST_CASE("block_slips.py: each block slip's contacts, chained through F_f's drop, and the period",
+          "[plots]") {
+  Sandbox box("stickslip_plots_");
+  write_census_run(box.work / "run", "all");
+  const auto r = python(box, "block_slips.py", "run");
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  check_png(box.work / "run" / "block_slips.png");
+  // Falls at 15, 25 and 35 ms, all three whole in the window: 4, 2 and 10 of
+  // the 10 contacts, a mean of 53.3 %; the lone slips at 20 and 25.5 ms lie
+  // outside them, the one at 5 ms outside the window.
+  std::smatch m;
+  REQUIRE(std::regex_search(
+      r.out, m,
+      std::regex(
+          R"((\d+) block slips, period (\S+) ms, contacts per block slip (\S+) % \((\S+)–(\S+) %\))")));
+  CHECK(m[1].str() == "3");
+  CHECK(std::stod(m[2].str()) == Approx(10.0).margin(1e-6));
+  CHECK(std::stod(m[3].str()) == Approx(100.0 * 16 / 30).margin(0.05));
+  CHECK(std::stod(m[4].str()) == Approx(20.0));
+  CHECK(std::stod(m[5].str()) == Approx(100.0));
+  CHECK_THAT(r.out, Catch::Contains("2 of the window's 19 slips outside them"));
+  const std::string csv = slurp(box.work / "run" / "block_slips.csv");
+  CHECK_THAT(csv, Catch::Contains(",5,4,0.4000\n"));
+  CHECK_THAT(csv, Catch::Contains(",2,2,0.2000\n"));
+  CHECK_THAT(csv, Catch::Contains(",10,10,1.0000\n"));
+  CHECK_THAT(csv, Catch::Contains("0.01488,0.0153,"));  // the first block slip's span
+}
+
+TEST_CASE("block_slips.py refuses a run whose events were not all located", "[plots]") {
+  Sandbox box("stickslip_plots_");
+  write_census_run(box.work / "run", "none");
+  const auto r = python(box, "block_slips.py", "run");
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Catch::Contains("events = \"all\""));
+  CHECK_FALSE(fs::exists(box.work / "run" / "block_slips.csv"));
+}
