@@ -2,7 +2,10 @@
 """Does μ's drop with load survive as the block grows? The drop
 1 − μ(0.498)/μ(0.04) against 1/L (L = Nx = Ny), with its error over seeds, and
 a straight-line extrapolation to L → ∞ where three or more widths have a drop
-with an error. A lattice with one seed at a load takes that load's error from
+with an error. Beside it, the other reading of the same points: a drop that
+vanishes slowly, a L^−p (a power law, fitted the same way). Both are drawn,
+with their χ², and each one's drop at twice the widest L: the width whose
+run tells them apart. A lattice with one seed at a load takes that load's error from
 the seeds' spread on the next narrower lattice (hollow marker, "(assumed)" in
 the table).
 
@@ -11,7 +14,8 @@ Usage: /usr/bin/python3 plots/finite_size.py SWEEP_DIR
   -> SWEEP_DIR/finite_size.png, finite_size.pdf and finite_size.csv (one row
      per lattice and coverage: seeds, μ over whole cycles with its standard
      error, F_f's spread, the block-scale cycle's period; then one row per
-     lattice with the drop and its propagated error)
+     lattice with the drop and its propagated error, then each model's
+     limit and its drop at twice the widest L)
 
 μ of a point is μ over whole cycles of F_f (summary.json's mu_whole_cycles),
 else over the window. The period is (to − from)/(crossings − 1) of the whole
@@ -30,6 +34,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from _command_line import arguments, directories  # noqa: E402
 import numpy as np  # noqa: E402
+from scipy.optimize import curve_fit  # noqa: E402
 
 LOW, HIGH = 0.04, 0.498
 
@@ -160,14 +165,34 @@ def main() -> int:
         sigma = math.sqrt(cov[1, 1])
         xs = np.linspace(0, max(x) * 1.05, 50)
         chi2 = float(np.sum(((y - (intercept + slope * x)) / e) ** 2))
+        next_width = 2 * max(lat[0] for lat, _, e, _ in thin if e)
         ax.plot(xs, 100 * (intercept + slope * xs), "k--", lw=1,
                 label=f"weighted fit in 1/L: L → ∞ drop {100 * intercept:.1f} % ± {100 * sigma:.1f} %"
                       f" (χ² {chi2:.2g}, {len(fit) - 2} d.o.f.)" + (", an error assumed" if any_assumed else ""))
         print(f"extrapolated drop at L -> infinity: {100 * intercept:.2f} % +- {100 * sigma:.2f} %"
               f" (chi2 {chi2:.3g} for {len(fit) - 2} degrees of freedom)"
               + (" with an assumed error" if any_assumed else ""))
+        at_next = intercept + slope / next_width
+        print(f"1/L model: drop at {next_width} wide {100 * at_next:.2f} %")
+        # The same points read as a drop that goes to zero, slowly: a L^-p.
+        # Fitted in L itself with the same weights, so its χ² compares
+        # with the line's.
+        widths = 1 / x
+        (a, p), pcov = curve_fit(lambda L, a, p: a * L ** -p, widths, y, p0=(y[0] * widths[0] ** 0.3, 0.3),
+                                 sigma=e, absolute_sigma=True)
+        p_sigma = math.sqrt(pcov[1, 1])
+        chi2_power = float(np.sum(((y - a * widths ** -p) / e) ** 2))
+        power_next = a * next_width ** -p
+        xs_power = xs[1:]  # 1/L > 0: the power law is 0 only at L → ∞
+        ax.plot(xs_power, 100 * a * xs_power ** p, "k:", lw=1,
+                label=f"or vanishing as $a L^{{-p}}$: p = {p:.2f} ± {p_sigma:.2f} (χ² {chi2_power:.2g})")
+        print(f"power law to zero: p = {p:.3f} +- {p_sigma:.3f} (chi2 {chi2_power:.3g});"
+              f" drop at {next_width} wide {100 * power_next:.2f} %")
         with table.open("a") as f:
             f.write(f"infinity,{intercept:.4g},{sigma:.2g}{' (assumed)' if any_assumed else ''}\n")
+            f.write("\nmodel,limit,limit_error,chi2,width,drop_there\n")
+            f.write(f"a + b/L,{intercept:.4g},{sigma:.2g},{chi2:.3g},{next_width},{at_next:.4g}\n")
+            f.write(f"a L^-p,0,,{chi2_power:.3g},{next_width},{power_next:.4g}\n")
     else:
         print(f"no extrapolation: {len(fit)} width(s) with an error bar at Nz = 10 (3 needed)")
         # Top centre: the axes fit the points, so a corner can hold one.

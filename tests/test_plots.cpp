@@ -539,7 +539,8 @@ double finite_size_drop(int width) {
   return 0.1 + 0.6 / width;
 }
 
-void write_finite_size_points(const fs::path& dir, const std::vector<int>& seeds_60_wide_low) {
+void write_finite_size_points(const fs::path& dir, const std::vector<int>& seeds_60_wide_low,
+                              double (*drop)(int) = finite_size_drop) {
   for (int width : {15, 30, 60})
     for (double coverage : {0.04, 0.498})
       for (int seed : {1, 2, 3}) {
@@ -547,7 +548,7 @@ void write_finite_size_points(const fs::path& dir, const std::vector<int>& seeds
             std::find(seeds_60_wide_low.begin(), seeds_60_wide_low.end(), seed) ==
                 seeds_60_wide_low.end())
           continue;
-        const double mean = coverage < 0.1 ? 5.0 : 5.0 * (1 - finite_size_drop(width));
+        const double mean = coverage < 0.1 ? 5.0 : 5.0 * (1 - drop(width));
         const double mu = mean + 0.05 * (seed - 2);
         const nlohmann::json summary = {
             {"case",
@@ -592,8 +593,37 @@ TEST_CASE("finite_size.py: the drop per width with its propagated error, and its
   REQUIRE(std::regex_search(r.out, m, std::regex(R"(L -> infinity: (\S+) % \+- (\S+) %)")));
   CHECK(std::stod(m[1].str()) == Approx(10.0).margin(0.01));
   CHECK(std::stod(m[2].str()) > 0.0);
+  // The line's drop at twice the widest L, where a run would test it.
+  REQUIRE(std::regex_search(r.out, m, std::regex(R"(1/L model: drop at 120 wide (\S+) %)")));
+  CHECK(std::stod(m[1].str()) == Approx(100 * drop(120)).margin(0.01));
   // The block-scale period: (to − from)/(crossings − 1) = 10 ms.
   CHECK_THAT(slurp(box.work / "fs" / "finite_size.csv"), Catch::Contains(",10,4,"));
+}
+
+TEST_CASE("finite_size.py: a drop vanishing as a power law of L is found as one, beside the line",
+          "[plots]") {
+  Sandbox box("stickslip_plots_");
+  // 0.3 L^-0.25: 16.3 %, 13.7 %, 11.5 % at 15, 30, 60 wide, 9.7 % at 120.
+  const auto power_law = [](int width) { return 0.3 * std::pow(width, -0.25); };
+  write_finite_size_points(box.work / "fs", {1, 2, 3}, power_law);
+  const auto r = python(box, "finite_size.py", "fs");
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  std::smatch m;
+  REQUIRE(std::regex_search(
+      r.out, m,
+      std::regex(
+          R"(power law to zero: p = (\S+) \+- (\S+) \(chi2 (\S+)\); drop at 120 wide (\S+) %)")));
+  CHECK(std::stod(m[1].str()) == Approx(0.25).margin(1e-3));
+  CHECK(std::stod(m[2].str()) > 0.0);
+  CHECK(std::stod(m[3].str()) < 1e-4);  // exact data: the power law passes through every point
+  CHECK(std::stod(m[4].str()) == Approx(100 * power_law(120)).margin(0.01));
+  // The line cannot: it misses, and says by how much.
+  REQUIRE(
+      std::regex_search(r.out, m, std::regex(R"(L -> infinity: \S+ % \+- \S+ % \(chi2 (\S+))")));
+  CHECK(std::stod(m[1].str()) > 1e-3);
+  CHECK_THAT(slurp(box.work / "fs" / "finite_size.csv"),
+             Catch::Contains("model,limit,limit_error,chi2,width,drop_there\na + b/L,"));
 }
 
 TEST_CASE(
