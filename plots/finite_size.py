@@ -4,8 +4,8 @@
 a straight-line extrapolation to L → ∞ where three or more widths have a drop
 with an error. Beside it, the other reading of the same points: a drop that
 vanishes slowly, a L^−p (a power law, fitted the same way). Both are drawn,
-with their χ², and each one's drop at twice the widest L: the width whose
-run tells them apart. A lattice with one seed at a load takes that load's error from
+with their χ², and each one's drop at twice the widest L, where a run would
+weigh them. A lattice with one seed at a load takes that load's error from
 the seeds' spread on the next narrower lattice (hollow marker, "(assumed)" in
 the table).
 
@@ -165,7 +165,8 @@ def main() -> int:
         sigma = math.sqrt(cov[1, 1])
         xs = np.linspace(0, max(x) * 1.05, 50)
         chi2 = float(np.sum(((y - (intercept + slope * x)) / e) ** 2))
-        next_width = 2 * max(lat[0] for lat, _, e, _ in thin if e)
+        widths = 1 / x
+        next_width = 2 * round(widths.max())
         ax.plot(xs, 100 * (intercept + slope * xs), "k--", lw=1,
                 label=f"weighted fit in 1/L: L → ∞ drop {100 * intercept:.1f} % ± {100 * sigma:.1f} %"
                       f" (χ² {chi2:.2g}, {len(fit) - 2} d.o.f.)" + (", an error assumed" if any_assumed else ""))
@@ -177,7 +178,6 @@ def main() -> int:
         # The same points read as a drop that goes to zero, slowly: a L^-p.
         # Fitted in L itself with the same weights, so its χ² compares
         # with the line's.
-        widths = 1 / x
         (a, p), pcov = curve_fit(lambda L, a, p: a * L ** -p, widths, y, p0=(y[0] * widths[0] ** 0.3, 0.3),
                                  sigma=e, absolute_sigma=True)
         p_sigma = math.sqrt(pcov[1, 1])
