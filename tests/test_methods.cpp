@@ -530,7 +530,7 @@ TEST_CASE(
   sparse.interface.coverage = 0.04;
   const auto [lone_slips, few] = choice_for(sparse);
   REQUIRE(few == 9);
-  for (const long w : MultirateIntegrator::contact_weights(
+  for (const long w : MultiratePartition::contact_weights(
            System(sparse, place_contacts(sparse.lattice, sparse.interface)), 64))
     REQUIRE(w == 64);
   CHECK(lone_slips.method == Method::dirk);

@@ -4,12 +4,16 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "stickslip/integrate/contact_substeps.hpp"
 #include "stickslip/integrate/make_integrator.hpp"
+#include "stickslip/integrate/multirate_integrator.hpp"
 #include "stickslip/integrate/tolerances.hpp"
 #include "stickslip/run/run.hpp"
 #include "temp_dir.hpp"
@@ -118,13 +122,18 @@ struct Events {
   SolverStats stats;
 };
 
-Events run(const System& system, Method method, double rtol, double t_end, long min_fast = 1) {
+Events run(const System& system, Method method, double rtol, double t_end, long min_fast = 1,
+           std::vector<int> watched = {0, 1}, long* most_fast = nullptr) {
   SolverParams p;
   p.method = method;
   p.rtol = rtol;
   p.multirate_min_fast = min_fast;
   IntegratorOptions options;
-  options.watched_contacts = {0, 1};
+  options.watched_contacts = watched;
+  if (most_fast)
+    options.on_step = [most_fast](const StepRecord& r) {
+      *most_fast = std::max(*most_fast, r.fast_contacts);
+    };
   std::vector<double> y(static_cast<std::size_t>(system.size())), y0(y.size());
   system.initial_state(InitialState::rest, y0);
   y = y0;
@@ -134,8 +143,8 @@ Events run(const System& system, Method method, double rtol, double t_end, long 
   while (t < t_end) {
     t = integrator->advance(t_end, y);
     const auto roots = integrator->roots();
-    for (int k = 0; k < 2; ++k)
-      if (roots[k] != 0) e.list.emplace_back(t, roots[k] * (k + 1));
+    for (std::size_t k = 0; k < roots.size(); ++k)
+      if (roots[k] != 0) e.list.emplace_back(t, roots[k] * (watched[k] + 1));
   }
   e.impulse = y[system.quadrature_index(System::friction_impulse)];
   e.residual = system.energy_residual(t_end, y, y0);
@@ -422,4 +431,176 @@ TEST_CASE("a fast contact's coarse node lands on its sub-steps once the coupling
   REQUIRE(misses.size() > 100);
   std::nth_element(misses.begin(), misses.begin() + misses.size() / 2, misses.end());
   CHECK(misses[misses.size() / 2] < 0.1);
+}
+
+namespace {
+
+struct AttemptRow {
+  double t, h;
+  long fast, pass;
+  double error, coupling, miss;
+  std::string verdict, worst;
+  long ix, iy, iz;
+};
+
+std::vector<AttemptRow> read_attempts(const std::filesystem::path& file, std::string& header) {
+  std::ifstream in(file);
+  std::getline(in, header);
+  std::vector<AttemptRow> rows;
+  std::string line;
+  while (std::getline(in, line)) {
+    std::vector<std::string> f;
+    std::stringstream fields(line);
+    for (std::string x; std::getline(fields, x, ',');) f.push_back(x);
+    REQUIRE(f.size() == 12);
+    rows.push_back({std::stod(f[0]), std::stod(f[1]), std::stol(f[2]), std::stol(f[3]),
+                    std::stod(f[4]), std::stod(f[5]), std::stod(f[6]), f[7], f[8],
+                    std::stol(f[9]), std::stol(f[10]), std::stol(f[11])});
+  }
+  return rows;
+}
+
+}  // namespace
+
+TEST_CASE("attempts.csv accounts for every coarse attempt, and asking for it changes no step",
+          "[multirate][steps]") {
+  // The pair through contact 0's first slip, its slips on sub-steps
+  // (multirate_min_fast 1): one row per attempt, whose accepted ones are
+  // steps.csv's steps, each retry repeating its step at the same size and
+  // each shrink at the same start with a shorter one.
+  Case c = test::two_contact_case();
+  c.run.t_end = 9e-4;
+  c.run.average_from = 0.0;
+  c.output.steps = true;
+  c.solver.method = Method::multirate;
+  c.solver.multirate_min_fast = 1;
+  test::TempDir dir("stickslip_test_multirate_attempts");
+  const RunOptions plain{dir.path / "plain", false, true};
+  const Summary without = run_case(c, plain);
+  c.output.attempts = true;
+  const RunOptions options{dir.path / "attempts", false, true};
+  const Summary summary = run_case(c, options);
+
+  std::string header;
+  const auto rows = read_attempts(options.out_dir / "attempts.csv", header);
+  CHECK(header ==
+        "t,h,fast_contacts,coupling_pass,error,coupling,miss,verdict,worst,worst_ix,worst_iy,"
+        "worst_iz");
+  CHECK(static_cast<long>(rows.size()) == summary.solver_stats.step_attempts);
+  std::vector<StepRow> steps;
+  {
+    std::ifstream in(options.out_dir / "steps.csv");
+    std::string line;
+    std::getline(in, line);
+    while (std::getline(in, line)) {
+      StepRow r{};
+      REQUIRE(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%ld,%ld,%lf", &r.t, &r.h, &r.error,
+                          &r.h_lambda, &r.fast, &r.substeps, &r.miss) == 7);
+      steps.push_back(r);
+    }
+  }
+  std::size_t accepted = 0;
+  long shrinks = 0, retries = 0, apart = 0;
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    const AttemptRow& r = rows[k];
+    INFO("attempt " << k << " at t = " << r.t << ": " << r.verdict);
+    CHECK(r.pass >= 1);
+    CHECK(r.pass <= MultirateIntegrator::kCouplingIterations);
+    CHECK((r.ix == -1) == (r.worst == "none" || r.worst == "work" || r.worst == "dissipated" ||
+                           r.worst == "friction_impulse"));
+    CHECK(r.ix < c.lattice.nx);
+    CHECK(r.iy < c.lattice.ny);
+    CHECK(r.iz < c.lattice.nz);
+    apart += r.fast > 0;
+    if (r.verdict == "accepted") {
+      REQUIRE(accepted < steps.size());
+      const StepRow& s = steps[accepted++];
+      CHECK(s.h == Approx(r.h).epsilon(1e-9));
+      CHECK(std::abs(s.t - (r.t + r.h)) <= 1e-11 * s.t);  // steps.csv's 12 digits
+      CHECK(s.fast == r.fast);
+      CHECK(r.error <= 1.0);
+      continue;
+    }
+    REQUIRE(k + 1 < rows.size());  // the last attempt is accepted
+    const AttemptRow& next = rows[k + 1];
+    CHECK(next.t == r.t);
+    if (r.verdict.rfind("retry", 0) == 0) {
+      ++retries;
+      CHECK(next.h == r.h);
+      CHECK(next.fast > r.fast);  // the contact that failed joined the fast ones
+    } else {
+      ++shrinks;
+      CHECK(next.h < r.h);
+      if (r.verdict == "shrink_error") CHECK(r.error > 1.0);
+    }
+  }
+  CHECK(accepted == steps.size());
+  CHECK(shrinks == summary.solver_stats.error_test_failures);
+  CHECK(apart > 0);
+  CHECK(summary.solver_stats.step_attempts == static_cast<long>(accepted) + shrinks + retries);
+  // Pay only for what is asked, and asking changes nothing: the same steps.
+  std::ifstream a(plain.out_dir / "friction.csv"), b(options.out_dir / "friction.csv");
+  const std::string ta((std::istreambuf_iterator<char>(a)), {}),
+      tb((std::istreambuf_iterator<char>(b)), {});
+  CHECK(ta == tb);
+  CHECK(without.solver_stats.step_attempts == summary.solver_stats.step_attempts);
+  CHECK(!std::filesystem::exists(plain.out_dir / "attempts.csv"));
+}
+
+TEST_CASE("multirate on a 5x5 block of neighbouring contacts: each one's slips as dirk's at a "
+          "far tighter tolerance (a known defect: fails today)",
+          "[multirate][!shouldfail]") {
+  // 25 contacts side by side: their slips spread through the block, and from
+  // multirate_min_fast 16 more than 20 of them at once are stepped apart on
+  // sub-steps, each reading its fast neighbours' motion off their sub-steps
+  // (the coupling's fine terms), which the pair never exercises.
+  //
+  // It fails: dirk converges (the slip times at rtol 1e-7 and 1e-9 agree to
+  // 3e-8 s), and the contacts that slip while the block is single rate (the
+  // corners and edges first, 2.156 and 2.167 ms) agree with it to 1e-10 s,
+  // but once the block goes apart the other 17 slip 0.55-0.86 µs early (a
+  // slip lasts ~3.4 µs) at rtol 1e-7 and 1e-8 alike, and contact 14 slips
+  // once more; with multirate_min_fast 1, 0.1-0.2 µs early. An error the
+  // tolerance does not control: the partition's own, in a block of fast
+  // neighbours. While it stands this test is expected to fail; when it
+  // passes, drop [!shouldfail].
+  Case c = test::two_contact_case();
+  c.lattice = {10, 10, 3, 1e-4};
+  c.interface.contacts.clear();
+  for (int iy = 2; iy < 7; ++iy)
+    for (int ix = 2; ix < 7; ++ix)
+      c.interface.contacts.push_back({ix, iy, (ix + iy) % 2 ? 4.75e-4 : 6e-4, 0});
+  const System system = test::make_system(c);
+  std::vector<int> all(25);
+  for (int k = 0; k < 25; ++k) all[static_cast<std::size_t>(k)] = k;
+  const double t_end = 2.3e-3;  // through the first block slip, 2.16-2.19 ms
+  const Events reference = run(system, Method::dirk, 1e-9, t_end, 1, all);
+  long most_fast = 0;
+  const Events mr = run(system, Method::multirate, 1e-7, t_end, 16, all, &most_fast);
+  CHECK(most_fast > 20);
+  // Per contact, its slips and sticks in order: within the block, contacts
+  // slipping within nanoseconds of each other may swap places in the list.
+  auto per_contact = [](const Events& e) {
+    std::vector<std::vector<std::pair<double, int>>> out(25);
+    for (const auto& [t, code] : e.list)
+      out[static_cast<std::size_t>(std::abs(code) - 1)].emplace_back(t, code > 0 ? 1 : -1);
+    return out;
+  };
+  const auto ref = per_contact(reference), got = per_contact(mr);
+  long slips = 0;
+  double worst = 0.0;
+  for (std::size_t k = 0; k < 25; ++k) {
+    INFO("contact " << k);
+    REQUIRE(got[k].size() == ref[k].size());
+    for (std::size_t i = 0; i < ref[k].size(); ++i) {
+      CHECK(got[k][i].second == ref[k][i].second);
+      worst = std::max(worst, std::abs(got[k][i].first - ref[k][i].first));
+      slips += ref[k][i].second > 0;
+    }
+  }
+  INFO("largest slip/stick time difference " << worst << " s over " << slips << " slips");
+  CHECK(slips >= 25);  // every contact slips
+  // dirk itself at rtol 1e-7 is 3e-8 s from its 1e-9: within 3 % of a slip.
+  CHECK(worst < 1e-7);
+  CHECK(std::abs(mr.residual) < 100 * 1e-7);
 }

@@ -482,6 +482,9 @@ const std::vector<Entry>& schema() {
        contact_selection(&OutputParams::events, &OutputParams::event_ids, &Reader::event_ids), "",
        "contacts whose stick/slip transitions are located"},
       {"output", "steps", boolean(&OutputParams::steps), "", "write steps.csv"},
+      {"output", "attempts", boolean(&OutputParams::attempts), "",
+       "write attempts.csv: every attempt at a coarse step, its errors, verdict and worst "
+       "component (method = \"multirate\", or \"auto\" where it chooses multirate)"},
       {"output", "final_state", boolean(&OutputParams::final_state), "",
        "write final_state.csv, and keep checkpoint.bin at t_end so that a later run.t_end can "
        "continue the run (run --restart)"},
@@ -754,6 +757,14 @@ void check_consistency(const Reader& r, const Case& c) {
         {{"solver.linear_solver", "applies to method = " + implicit_methods + " only, not " + name},
          {"solver.method", "solves no linear systems: leave [solver] linear_solver out"}});
   }
+  // Only a stepper of this project's own sees its attempts; SUNDIALS' packages
+  // report accepted steps only ("auto" may choose multirate: allowed).
+  if (c.output.attempts && s.method != Method::automatic && m.package != Package::own)
+    r.fail_first(
+        {{"output.attempts",
+          "applies to method = \"multirate\" only, not " + name +
+              " (whose attempts SUNDIALS keeps to itself: [output] steps records its steps)"},
+         {"solver.method", name + " records no attempts: leave [output] attempts out"}});
   // multirate sub-steps a contact node alone, its neighbours given: a patch's
   // nodes are each other's neighbours, and a one-layer lattice's contact
   // nodes are driven (integrate/contact_substeps.hpp).

@@ -224,7 +224,6 @@ SubstepResult ContactSubsteps::advance(std::size_t j, const NodeCoupling& coupli
       const double predictor = std::hypot(z[i - 1][2], z[i - 1][3]);
       const ContactStage st =
           system_.site_stage(j, gamma / alpha, {r[0] / alpha, r[1] / alpha}, predictor, false);
-      out.stage_iterations += st.iterations;
       z[i] = {b[0] + gamma * st.s[0], b[1] + gamma * st.s[1], st.s[0], st.s[1]};
       for (int k = 0; k < 4; ++k) f[i][k] = (z[i][k] - b[k]) / gamma;
       // a_c as the stage equation has it (not the law at z: near rest that

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <fstream>
 
+#include "stickslip/case/methods.hpp"
 #include "stickslip/core/cycles.hpp"
 #include "stickslip/output/recorder.hpp"
 #include "stickslip/output/tables.hpp"
@@ -410,6 +411,68 @@ class StepsRecorder final : public Recorder {
   std::unique_ptr<Table> table_;
 };
 
+// attempts: every attempt at a coarse step of a stepper whose attempts are
+// this project's own (multirate, multirate_integrator.hpp): its start and
+// size, its fast contacts, the coupling pass its verdict came in, its
+// weighted error, coupling and miss, the verdict, and the state component
+// that decided it (kind and node; "none" and −1 where none did).
+class AttemptsRecorder final : public Recorder {
+ public:
+  static constexpr const char* kTable = run_table::kAttempts;
+  explicit AttemptsRecorder(const RecorderSetup& s)
+      : system_(s.system), table_(open_table(s, schema())) {}
+  bool wants_attempts() const override { return true; }
+  void attempt(const AttemptRecord& r) override {
+    const auto [kind, node] = component(r.worst);
+    const std::int64_t layer = std::int64_t{system_.nx()} * system_.ny();
+    const bool at_node = node >= 0;
+    const double row[12] = {r.t,
+                            r.h,
+                            static_cast<double>(r.fast_contacts),
+                            static_cast<double>(r.coupling_pass),
+                            r.error,
+                            r.coupling,
+                            r.miss,
+                            static_cast<double>(r.verdict),
+                            static_cast<double>(kind),
+                            at_node ? static_cast<double>(node % system_.nx()) : -1.0,
+                            at_node ? static_cast<double>((node / system_.nx()) % system_.ny()) : -1.0,
+                            at_node ? static_cast<double>(node / layer) : -1.0};
+    table_->append(row);
+  }
+  void flush() override { table_->flush(); }
+
+ private:
+  // The worst component's kinds: a node's u and w along x, y, z (the state's
+  // layout, System::u_index and w_index), the three quadratures, none.
+  static constexpr const char* kKinds[] = {"u_x",  "u_y",        "u_z",       "w_x",
+                                           "w_y",  "w_z",        "work",      "dissipated",
+                                           "friction_impulse", "none"};
+  static TableSpec schema() {
+    Column verdict{.name = "verdict", .type = ColumnType::label};
+    for (const char* name : AttemptRecord::kVerdictNames) verdict.labels.emplace_back(name);
+    Column kind{.name = "worst", .type = ColumnType::label};
+    for (const char* name : kKinds) kind.labels.emplace_back(name);
+    return {kTable,
+            {time_column(15), real("h", "s", kExact), integer("fast_contacts"),
+             integer("coupling_pass"),
+             real("error", "1"), real("coupling", "1"), real("miss", "1"), verdict, kind,
+             integer("worst_ix"), integer("worst_iy"), integer("worst_iz")}};
+  }
+  // State index i as (kind, node): node −1 for a quadrature or none.
+  std::pair<int, std::int64_t> component(std::int64_t i) const {
+    const std::int64_t n = system_.num_nodes();
+    if (i < 0) return {9, -1};
+    if (i >= 6 * n) return {static_cast<int>(6 + (i - 6 * n)), -1};
+    const bool velocity = i >= 3 * n;
+    const std::int64_t r = velocity ? i - 3 * n : i;
+    return {static_cast<int>((velocity ? 3 : 0) + r % 3), r / 3};
+  }
+
+  const System& system_;
+  std::unique_ptr<Table> table_;
+};
+
 // signals: the block's centre-of-mass velocity, the contacts' impulse and
 // the acoustic signal, its second difference over the output times (docs/USAGE.md, "signals.csv").
 class SignalsRecorder final : public Recorder {
@@ -510,6 +573,11 @@ constexpr RecorderKind kRecorders[] = {
      make<SlipsRecorder>},
     {StepsRecorder::kTable, [](const RecorderSetup& s) { return s.c.output.steps; },
      make<StepsRecorder>},
+    {AttemptsRecorder::kTable,
+     [](const RecorderSetup& s) {
+       return s.c.output.attempts && method_info(s.method).package == Package::own;
+     },
+     make<AttemptsRecorder>},
     {SignalsRecorder::kTable, [](const RecorderSetup& s) { return s.c.output.signals; },
      make<SignalsRecorder>},
     {FinalStateRecorder::kTable, [](const RecorderSetup& s) { return s.c.output.final_state; },

@@ -387,6 +387,13 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
     integrator_options.on_step = [step_recorders](const StepRecord& step) {
       for (Recorder* r : step_recorders) r->step(step);
     };
+  std::vector<Recorder*> attempt_recorders;
+  for (const auto& r : recorders)
+    if (r->wants_attempts()) attempt_recorders.push_back(r.get());
+  if (!attempt_recorders.empty())
+    integrator_options.on_attempt = [attempt_recorders](const AttemptRecord& attempt) {
+      for (Recorder* r : attempt_recorders) r->attempt(attempt);
+    };
 
   stats_before = resume ? resume->stats : SolverStats{};
   // max_steps counts the steps before a restart too: the integrator's budget is what is left.

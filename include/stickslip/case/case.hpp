@@ -133,6 +133,7 @@ struct OutputParams {
   ContactSelection events = ContactSelection::all;  // whose stick/slip transitions are located
   std::vector<int> event_ids;                       // when events == list
   bool steps = false;                               // write steps.csv
+  bool attempts = false;  // write attempts.csv (a stepper whose attempts are its own: multirate)
   // write final_state.csv, and keep checkpoint.bin at t_end: a later
   // run.t_end can then continue the run (run --restart)
   bool final_state = false;

@@ -114,9 +114,9 @@ struct SubstepResult {
   std::array<double, 2> impulse{}, moment{};
   // The same of the node's own acceleration, a_c + K u + C w (all but Φ):
   // what the coarse stand-in passes on where it cancels its own K and C
-  // (MultirateIntegrator::attempt).
+  // (MultirateIntegrator::substep_fast).
   std::array<double, 2> own_impulse{}, own_moment{};
-  long substeps = 0, rejected = 0, stage_iterations = 0;
+  long substeps = 0, rejected = 0;
   double last_substep = 0.0;  // the controller's next sub-step
   // x at τ in [0, H], by the cubic Hermite of the sub-step holding it.
   std::array<double, 4> at(double tau) const;

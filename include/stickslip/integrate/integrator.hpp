@@ -24,6 +24,10 @@ namespace stickslip {
 struct IntegratorOptions {
   std::vector<int> watched_contacts;               // stick/slip root functions, none if empty
   std::function<void(const StepRecord&)> on_step;  // called after every accepted step, if set
+  // Called after every attempt at a step, if set, by the steppers whose
+  // attempts are this project's own (multirate); SUNDIALS' packages report
+  // accepted steps only.
+  std::function<void(const AttemptRecord&)> on_attempt;
   // Called every poll interval of steps inside advance() (a few hundred: the
   // linear solver's row, case/methods.cpp); when it returns true,
   // advance() returns at the end of the last accepted step. This is how a

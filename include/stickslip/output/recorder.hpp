@@ -61,6 +61,10 @@ class Recorder {
   // Only recorders that want them get every accepted step (it costs a callback per step).
   virtual bool wants_steps() const { return false; }
   virtual void step(const StepRecord& /*r*/) {}
+  // Likewise every attempt at a step, where the stepper reports them
+  // (IntegratorOptions::on_attempt).
+  virtual bool wants_attempts() const { return false; }
+  virtual void attempt(const AttemptRecord& /*r*/) {}
   // Everything recorded so far reaches the file (a crash or a checkpoint).
   virtual void flush() {}
   // A checkpoint: what a restart cannot read back from the tables, under

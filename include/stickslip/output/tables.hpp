@@ -30,6 +30,7 @@ inline constexpr const char* kTraces = "traces";
 inline constexpr const char* kEvents = "events";
 inline constexpr const char* kSlips = "slips";
 inline constexpr const char* kSteps = "steps";
+inline constexpr const char* kAttempts = "attempts";
 inline constexpr const char* kSignals = "signals";
 inline constexpr const char* kFinalState = "final_state";
 }  // namespace run_table
