@@ -88,6 +88,7 @@ const std::map<std::string, Given>& given_values() {
       {"output.traces", {"[0]"}},
       {"output.events", {"\"none\""}},
       {"output.steps", {"true"}},
+      {"output.attempts", {"true"}},
       {"output.final_state", {"true"}},
       {"output.signals", {"true"}},
       {"output.format", {"\"hdf5\""}},

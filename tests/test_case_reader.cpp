@@ -273,6 +273,19 @@ TEST_CASE("linear_solver = \"klu\" is refused with the reason", "[case]") {
         LinearSolver::fft);
 }
 
+TEST_CASE("[output] attempts is refused for a method whose attempts SUNDIALS keeps", "[case]") {
+  // Blamed on the key given: attempts under dirk's own line, or the method
+  // given after attempts by --set.
+  REQUIRE_THROWS_WITH(parse("[solver]\nmethod = \"dirk\"\n[output]\nattempts = true\n"),
+                      Catch::StartsWith("cases/t.toml:4: output.attempts: applies to method = "
+                                        "\"multirate\" only, not \"dirk\""));
+  REQUIRE_THROWS_WITH(parse("[solver]\nmethod = \"bdf\"\n[output]\nattempts = true\n"),
+                      Contains("not \"bdf\""));
+  CHECK(parse("[solver]\nmethod = \"multirate\"\n[output]\nattempts = true\n").output.attempts);
+  // "auto" may choose multirate: allowed, and written where it does.
+  CHECK(parse("[output]\nattempts = true\n").output.attempts);
+}
+
 TEST_CASE("explicit contacts are read in order, in either TOML form", "[case]") {
   const Case inline_form = parse(R"([interface]
 contacts = [

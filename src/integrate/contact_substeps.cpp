@@ -179,6 +179,59 @@ ContactSubsteps::ContactSubsteps(const System& system, const EsdirkTable& table,
                                  std::array<double, 4> atol)
     : system_(system), table_(table), rtol_(rtol), atol_(atol) {}
 
+// One sub-step's stages over [τ, τ + h] from z[0], f[0] (the step's start):
+// each stage's state z, derivative f and the contact's a_c as the stage
+// equation has it. False where a stage is refused for γλ > 1.
+bool ContactSubsteps::stages(std::size_t j, const NodeCoupling& coupling, const Forcing& forcing,
+                             double tau, double h, std::vector<std::array<double, 4>>& z,
+                             std::vector<std::array<double, 4>>& f,
+                             std::vector<std::array<double, 2>>& ac) const {
+  const int s = table_.stages;
+  const double K = coupling.stiffness, C = coupling.damping;
+  for (int i = 1; i < s; ++i) {
+    std::array<double, 4> b = z[0];
+    for (int l = 0; l < i; ++l)
+      for (int k = 0; k < 4; ++k) b[k] += h * table_.at(i, l) * f[l][k];
+    const double gamma = h * table_.at(i, i);
+    const double ti = tau + table_.c[i] * h;
+    const auto phi = forcing.at(ti);
+    // u = b_u + γ w and w − γ (Φ + K u + C w + a_c(w)) = b_w:
+    //     α w − γ a_c(w) = r,  α = 1 − γ C − γ² K,  r = b_w + γ (Φ + K b_u).
+    const double alpha = 1.0 - gamma * C - gamma * gamma * K;
+    const std::array<double, 2> r{b[2] + gamma * (phi[0] + K * b[0]),
+                                  b[3] + gamma * (phi[1] + K * b[1])};
+    const double predictor = std::hypot(z[i - 1][2], z[i - 1][3]);
+    const ContactStage st =
+        system_.site_stage(j, gamma / alpha, {r[0] / alpha, r[1] / alpha}, predictor, false);
+    z[i] = {b[0] + gamma * st.s[0], b[1] + gamma * st.s[1], st.s[0], st.s[1]};
+    for (int k = 0; k < 4; ++k) f[i][k] = (z[i][k] - b[k]) / gamma;
+    // a_c as the stage equation has it (not the law at z: near rest that
+    // is noise, MODEL.md §6's 1e15 s⁻¹).
+    ac[i] = {f[i][2] - phi[0] - K * z[i][0] - C * z[i][2],
+             f[i][3] - phi[1] - K * z[i][1] - C * z[i][3]};
+    // As the coarse stages (lattice_stage_solver.cpp): past γλ = 1 the
+    // stage damps a slip's growth where the error estimate cannot see it.
+    if (gamma * system_.site_weakening_rate(j, st.s) > 1.0) return false;
+  }
+  return true;
+}
+
+// The weighted RMS of the embedded error estimate of a sub-step of size h
+// from x with stage derivatives f.
+double ContactSubsteps::error_norm(double h, const std::array<double, 4>& x,
+                                   const std::vector<std::array<double, 4>>& f) const {
+  const int s = table_.stages;
+  double sum = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    double e = 0.0;
+    for (int l = 0; l < s; ++l) e += (table_.b[l] - table_.d[l]) * f[l][k];
+    e *= h;
+    const double weight = 1.0 / (rtol_ * std::abs(x[k]) + atol_[k]);
+    sum += (e * weight) * (e * weight);
+  }
+  return std::sqrt(sum / 4.0);
+}
+
 SubstepResult ContactSubsteps::advance(std::size_t j, const NodeCoupling& coupling, double H,
                                        std::array<double, 4> x0, std::array<double, 2> a0,
                                        const Forcing& forcing, double h_try) const {
@@ -202,52 +255,21 @@ SubstepResult ContactSubsteps::advance(std::size_t j, const NodeCoupling& coupli
   double h = std::min(h_try, H);
   while (tau < H) {
     if (out.substeps + out.rejected > kMaxSubsteps || !(h > 1e-18))
-      throw StageNotConverged("a fast contact's sub-steps did not get through the coarse step");
+      throw StageNotConverged(
+          "contact site " + std::to_string(j) + "'s sub-steps did not get through the coarse step (" +
+          (!(h > 1e-18) ? "the sub-step fell below 1e-18 s" : "more than " + std::to_string(kMaxSubsteps) + " sub-steps") +
+          " at " + std::to_string(tau / H) + " of it)");
     // The last sub-step lands on H; one just short of it is stretched.
     if (tau + h >= H || H - (tau + h) < 1e-3 * h) h = H - tau;
     z[0] = x;
     f[0] = out.points.back().f;
     ac[0] = a;
-    bool refused = false;
-    for (int i = 1; i < s && !refused; ++i) {
-      std::array<double, 4> b = x;
-      for (int l = 0; l < i; ++l)
-        for (int k = 0; k < 4; ++k) b[k] += h * table_.at(i, l) * f[l][k];
-      const double gamma = h * table_.at(i, i);
-      const double ti = tau + table_.c[i] * h;
-      const auto phi = forcing.at(ti);
-      // u = b_u + γ w and w − γ (Φ + K u + C w + a_c(w)) = b_w:
-      //     α w − γ a_c(w) = r,  α = 1 − γ C − γ² K,  r = b_w + γ (Φ + K b_u).
-      const double alpha = 1.0 - gamma * C - gamma * gamma * K;
-      const std::array<double, 2> r{b[2] + gamma * (phi[0] + K * b[0]),
-                                    b[3] + gamma * (phi[1] + K * b[1])};
-      const double predictor = std::hypot(z[i - 1][2], z[i - 1][3]);
-      const ContactStage st =
-          system_.site_stage(j, gamma / alpha, {r[0] / alpha, r[1] / alpha}, predictor, false);
-      z[i] = {b[0] + gamma * st.s[0], b[1] + gamma * st.s[1], st.s[0], st.s[1]};
-      for (int k = 0; k < 4; ++k) f[i][k] = (z[i][k] - b[k]) / gamma;
-      // a_c as the stage equation has it (not the law at z: near rest that
-      // is noise, MODEL.md §6's 1e15 s⁻¹).
-      ac[i] = {f[i][2] - phi[0] - K * z[i][0] - C * z[i][2],
-               f[i][3] - phi[1] - K * z[i][1] - C * z[i][3]};
-      // As the coarse stages (lattice_stage_solver.cpp): past γλ = 1 the
-      // stage damps a slip's growth where the error estimate cannot see it.
-      if (gamma * system_.site_weakening_rate(j, st.s) > 1.0) refused = true;
-    }
-    if (refused) {
+    if (!stages(j, coupling, forcing, tau, h, z, f, ac)) {
       ++out.rejected;
       h *= 0.25;
       continue;
     }
-    double sum = 0.0;
-    for (int k = 0; k < 4; ++k) {
-      double e = 0.0;
-      for (int l = 0; l < s; ++l) e += (table_.b[l] - table_.d[l]) * f[l][k];
-      e *= h;
-      const double weight = 1.0 / (rtol_ * std::abs(x[k]) + atol_[k]);
-      sum += (e * weight) * (e * weight);
-    }
-    const double error = std::sqrt(sum / 4.0);
+    const double error = error_norm(h, x, f);
     if (!(error <= 1.0)) {
       ++out.rejected;
       h *= std::isfinite(error) ? std::clamp(0.9 * std::pow(error, exponent), 0.1, 0.9) : 0.25;

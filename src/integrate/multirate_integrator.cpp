@@ -218,7 +218,7 @@ MultirateIntegrator::Outcome MultirateIntegrator::attempt(double H, std::optiona
       report(a, *o);
       return std::move(*o);
     }
-    ++stats_.coupling_iterations;
+    ++counts_.coupling_iterations;
     std::swap(a.forcing, a.next_forcing);  // reads this pass's sub-steps, which the next keeps
   }
   Outcome o{AttemptRecord::Verdict::shrink_coupling, "Φ did not settle", {}, {}};
@@ -364,8 +364,8 @@ std::optional<MultirateIntegrator::Outcome> MultirateIntegrator::substep_fast(At
       a.worst = wx;
       return Outcome{AttemptRecord::Verdict::shrink_substeps, e.what(), {}, {}};
     }
-    stats_.substeps += current[q].substeps;
-    stats_.substep_failures += current[q].rejected;
+    counts_.substeps += current[q].substeps;
+    counts_.substep_failures += current[q].rejected;
     const SubstepPoint& end = current[q].points.back();
     for (int k = 0; k < 2; ++k) {
       const double A0 = a.cancel_own ? current[q].own_impulse[k] : current[q].impulse[k];
@@ -642,8 +642,8 @@ void MultirateIntegrator::accept() {
   partition_.step_accepted();
   std::swap(step_, trial_);
   ++stats_.steps;
-  stats_.fast_contact_steps += static_cast<long>(step_->fast.size());
-  stats_.partition_work += step_->partition_work;
+  counts_.fast_contact_steps += static_cast<long>(step_->fast.size());
+  counts_.partition_work += step_->partition_work;
   stats_.last_step = st.H;
   if (!roots_.empty()) sample_speeds();
   record(step_->error);
@@ -892,6 +892,11 @@ SolverStats MultirateIntegrator::stats() const {
   s.linear_setups = stages_.lattice().factorizations();
   s.jacobian_evaluations = stages_.contact_factorizations();
   s.krylov_iterations = stages_.krylov_iterations();
+  s.method = {{"substeps", counts_.substeps},
+              {"substep_failures", counts_.substep_failures},
+              {"fast_contact_steps", counts_.fast_contact_steps},
+              {"coupling_iterations", counts_.coupling_iterations},
+              {"partition_work", counts_.partition_work}};
   return s;
 }
 

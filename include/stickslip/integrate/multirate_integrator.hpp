@@ -48,7 +48,7 @@
 //     sub-steps'; their dissipation (integrated on the sub-steps) joins the
 //     quadrature. The lattice worked on the stand-ins along the coarse path
 //     instead: the gap is energy the partition makes
-//     (SolverStats::partition_work): the energy audit's residual where slips
+//     (its partition_work, Counts): the energy audit's residual where slips
 //     are lone, a part of it in block slips.
 //
 // Each attempt's outcome (its verdict, errors and worst component) goes to
@@ -180,6 +180,20 @@ class MultirateIntegrator final : public Integrator {
   std::vector<std::vector<double>> f_, z_;
 
   SolverStats stats_;
+  // What only multirate counts (SolverStats::method): the fast contacts'
+  // sub-steps (accepted, rejected), the contacts the coarse steps left to
+  // them (summed over the steps), the coupling passes repeated, and the
+  // energy the partition itself makes [J]: the lattice does work on a fast
+  // contact's stand-in along the node's coarse path, the contact dissipates
+  // along its sub-steps; where its force changes within a coarse step the
+  // two differ. Where slips are lone, this summed over the run is, but for
+  // the coarse steps' own error, the energy audit's residual times the
+  // drive's work; in block slips it is a part of it (docs/PERFORMANCE.md,
+  // "The μ floor, what it is and what it is not").
+  struct Counts {
+    long substeps = 0, substep_failures = 0, fast_contact_steps = 0, coupling_iterations = 0;
+    double partition_work = 0.0;
+  } counts_;
   long steps_since_poll_ = 0;
 };
 

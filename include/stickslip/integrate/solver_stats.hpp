@@ -3,10 +3,13 @@
 // its restarts: a checkpoint carries the statistics so far).
 
 #include <nlohmann/json.hpp>
+#include <string_view>
 
 namespace stickslip {
 
-struct SolverStats {
+// What every method counts (each package's or stepper's own name for it
+// aside).
+struct SolverCounts {
   long steps = 0;
   long step_attempts = 0;
   long rhs_explicit = 0;       // evaluations of the explicit part (erk, rk4, imex)
@@ -20,33 +23,34 @@ struct SolverStats {
   long error_test_failures = 0;
   long root_evaluations = 0;
   double last_step = 0.0;
-  // multirate: the fast contacts' sub-steps (accepted, rejected), the
-  // contacts a coarse step left to their sub-steps (summed over the steps),
-  // and the coarse steps redone for their coupling.
-  long substeps = 0;
-  long substep_failures = 0;
-  long fast_contact_steps = 0;
-  long coupling_iterations = 0;
-  // multirate: the energy the partition itself makes [J]. The lattice does
-  // work on a fast contact's stand-in along the node's coarse path, the
-  // contact dissipates along its sub-steps'; where its force changes within
-  // a coarse step the two differ. Where slips are lone, this summed over the
-  // run is, but for the coarse steps' own error, the energy audit's residual
-  // times the drive's work; in block slips it is a part of it
-  // (docs/PERFORMANCE.md, "The μ floor, what it is and what it is not").
-  double partition_work = 0.0;
 };
 
-// JSON with one field per member, both ways (summary.json, checkpoints). A
-// field missing from an older file reads as zero (krylov_iterations and the
-// multirate counts and partition_work came later).
-NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(SolverStats, steps, step_attempts, rhs_explicit,
+// JSON with one field per member, both ways. A field missing from an older
+// file reads as zero (krylov_iterations came later).
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(SolverCounts, steps, step_attempts, rhs_explicit,
                                                 rhs_implicit, newton_iterations,
                                                 convergence_failures, linear_setups,
                                                 jacobian_evaluations, krylov_iterations,
-                                                error_test_failures, root_evaluations, last_step,
-                                                substeps, substep_failures, fast_contact_steps,
-                                                coupling_iterations, partition_work)
+                                                error_test_failures, root_evaluations, last_step)
+
+struct SolverStats : SolverCounts {
+  // What only one method counts, by name, each summed over the run: its
+  // stepper names and fills them (MultirateIntegrator::stats: its sub-steps,
+  // fast contact-steps, coupling passes and partition work), and
+  // summary.json writes them beside the counts above. Integer counts stay
+  // integers.
+  nlohmann::json method = nlohmann::json::object();
+
+  // The method's count or amount `name`; 0 where the method keeps none.
+  long count(std::string_view name) const;
+  double amount(std::string_view name) const;
+};
+
+// The counts and the method's own, side by side in one object. Reading, a
+// field that is not a count is the method's own (a zero one from a file of a
+// method that wrote every method's fields is dropped).
+void to_json(nlohmann::json& j, const SolverStats& s);
+void from_json(const nlohmann::json& j, SolverStats& s);
 
 // The statistics of a run continued from a checkpoint: counts add up, the
 // last step is the later run's.
