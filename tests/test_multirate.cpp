@@ -132,7 +132,7 @@ Events run(const System& system, Method method, double rtol, double t_end, long 
   options.watched_contacts = watched;
   if (most_fast)
     options.on_step = [most_fast](const StepRecord& r) {
-      *most_fast = std::max(*most_fast, r.fast_contacts);
+      *most_fast = std::max(*most_fast, static_cast<long>(r.method_values[0]));  // fast_contacts
     };
   std::vector<double> y(static_cast<std::size_t>(system.size())), y0(y.size());
   system.initial_state(InitialState::rest, y0);

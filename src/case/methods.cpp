@@ -30,7 +30,11 @@ constexpr MethodInfo kMethods[] = {
      StageSolve::exact_lattice,
      "multirate ESDIRK: lattice and slow contacts on coarse steps solved exactly (lattice by "
      "FFT, contacts by Newton on their coupled speeds), each fast contact on adaptive sub-steps "
-     "of its own", "stage"},
+     "of its own", "stage",
+     // It sub-steps a contact node alone, its neighbours given: a patch's
+     // nodes are each other's neighbours, and a one-layer lattice's contact
+     // nodes are driven (integrate/contact_substeps.hpp).
+     /*single_site_only=*/true, /*min_nodes=*/2, /*bytes_per_node=*/2.5 * 1024},
 };
 
 constexpr LinearSolverInfo kLinearSolvers[] = {

@@ -600,14 +600,12 @@ std::string bytes_text(double bytes) {
   return text;
 }
 
-// Peak memory of a run, from its lattice: measured peak resident sizes
-// (30×30×10 against 60×60×10, coverage 0.1) grew by 1.7 KiB a node with dirk
-// and 2.2 KiB with multirate (its sub-step state); the other methods need
-// less than dirk.
+// Peak memory of a run, from its lattice and its method's row ("auto":
+// dirk's, which it mostly chooses).
 double memory_estimate(const Case& c) {
   const double nodes = double(c.lattice.nx) * c.lattice.ny * c.lattice.nz;
-  const double per_node = c.solver.method == Method::multirate ? 2.5 * 1024 : 2.0 * 1024;
-  return nodes * per_node;
+  const Method m = c.solver.method == Method::automatic ? Method::dirk : c.solver.method;
+  return nodes * method_info(m).bytes_per_node;
 }
 
 double physical_memory() {
@@ -765,21 +763,20 @@ void check_consistency(const Reader& r, const Case& c) {
           "applies to method = \"multirate\" only, not " + name +
               " (whose attempts SUNDIALS keeps to itself: [output] steps records its steps)"},
          {"solver.method", name + " records no attempts: leave [output] attempts out"}});
-  // multirate sub-steps a contact node alone, its neighbours given: a patch's
-  // nodes are each other's neighbours, and a one-layer lattice's contact
-  // nodes are driven (integrate/contact_substeps.hpp).
-  if (s.method == Method::multirate && c.interface.patch != 1)
+  // What the method's row asks of the case (case/methods.cpp says why).
+  if (m.single_site_only && c.interface.patch != 1)
     r.fail_first({{"interface.patch",
                    "must be 1 with method = " + name + " (it steps single-site contacts)"},
                   {"solver.method", name + " steps single-site contacts: leave patch at 1"}});
-  if (s.method == Method::multirate)
-    for (const auto& [key, nodes] : {std::pair<std::string, int>{"lattice.nx", c.lattice.nx},
-                                     {"lattice.ny", c.lattice.ny},
-                                     {"lattice.nz", c.lattice.nz}})
-      if (nodes < 2)
-        r.fail_first(
-            {{key, "must be >= 2 with method = " + name + ", got " + std::to_string(nodes)},
-             {"solver.method", name + " needs a lattice of at least 2x2x2 nodes"}});
+  const std::string least = std::to_string(m.min_nodes);
+  for (const auto& [key, nodes] : {std::pair<std::string, int>{"lattice.nx", c.lattice.nx},
+                                   {"lattice.ny", c.lattice.ny},
+                                   {"lattice.nz", c.lattice.nz}})
+    if (nodes < m.min_nodes)
+      r.fail_first({{key, "must be >= " + least + " with method = " + name + ", got " +
+                              std::to_string(nodes)},
+                    {"solver.method", name + " needs a lattice of at least " + least + "x" +
+                                          least + "x" + least + " nodes"}});
   if (s.order != 0 && (s.order < m.min_order || s.order > m.max_order))
     r.fail_first({{"solver.order", "must be 0 (default) or in [" + std::to_string(m.min_order) +
                                        ", " + std::to_string(m.max_order) + "] for method = " +

@@ -107,4 +107,9 @@ nlohmann::json describe_solver(const System& system, const ResolvedSolver& solve
   return d;
 }
 
+std::span<const StepColumn> step_columns(Method m) {
+  if (m == Method::multirate) return MultirateIntegrator::kStepColumns;
+  return {};
+}
+
 }  // namespace stickslip

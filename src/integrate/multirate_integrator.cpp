@@ -678,11 +678,10 @@ void MultirateIntegrator::record(double error) {
     rate = std::max(rate, system_.site_weakening_rate(j, {y_[wx], y_[wx + 1]}));
   }
   StepRecord r{t_, step_->H, error, step_->H * rate};
-  r.fast_contacts = static_cast<long>(step_->fast.size());
   long substeps = 0;
   for (const auto& fine : step_->fine) substeps += fine.substeps;
-  r.substeps = substeps;
-  r.miss = step_->miss;
+  r.method_values = {static_cast<double>(step_->fast.size()), static_cast<double>(substeps),
+                     step_->miss};
   options_.on_step(r);
 }
 

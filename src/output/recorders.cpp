@@ -8,6 +8,7 @@
 
 #include "stickslip/case/methods.hpp"
 #include "stickslip/core/cycles.hpp"
+#include "stickslip/integrate/make_integrator.hpp"
 #include "stickslip/output/recorder.hpp"
 #include "stickslip/output/tables.hpp"
 #include "stickslip/output/writers.hpp"
@@ -375,39 +376,31 @@ class SlipsRecorder final : public Recorder {
   std::unique_ptr<Table> table_;
 };
 
-// steps: every accepted step's size, error estimate and h λ; with method =
-// "multirate" also how many contacts the step left to their own sub-steps,
-// and those sub-steps.
+// steps: every accepted step's size, error estimate and h λ, and the
+// columns its stepper declares (step_columns: with method = "multirate" how
+// many contacts the step left to their own sub-steps, and those sub-steps).
 class StepsRecorder final : public Recorder {
  public:
   static constexpr const char* kTable = run_table::kSteps;
   explicit StepsRecorder(const RecorderSetup& s)
-      : multirate_(s.method == Method::multirate), table_(open_table(s, schema())) {}
+      : own_(step_columns(s.method)), table_(open_table(s, schema())) {}
   bool wants_steps() const override { return true; }
   void step(const StepRecord& r) override {
-    const double row[7] = {r.t,
-                           r.h,
-                           r.error,
-                           r.h_lambda,
-                           static_cast<double>(r.fast_contacts),
-                           static_cast<double>(r.substeps),
-                           r.miss};
-    table_->append(std::span(row, multirate_ ? 7 : 4));
+    std::array<double, 4 + kMaxStepColumns> row{r.t, r.h, r.error, r.h_lambda};
+    std::copy(r.method_values.begin(), r.method_values.begin() + own_.size(), row.begin() + 4);
+    table_->append(std::span(row.data(), 4 + own_.size()));
   }
   void flush() override { table_->flush(); }
 
  private:
   TableSpec schema() const {
     TableSpec t{kTable, {time_column(), real("h", "s"), real("error", "1"), real("h_lambda", "1")}};
-    if (multirate_) {
-      t.columns.push_back(integer("fast_contacts"));
-      t.columns.push_back(integer("substeps"));
-      t.columns.push_back(real("miss", "1"));
-    }
+    for (const StepColumn& c : own_)
+      t.columns.push_back(c.integer ? integer(c.name) : real(c.name, c.unit));
     return t;
   }
 
-  bool multirate_;
+  std::span<const StepColumn> own_;
   std::unique_ptr<Table> table_;
 };
 

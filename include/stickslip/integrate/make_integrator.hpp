@@ -54,4 +54,8 @@ std::unique_ptr<Integrator> make_integrator(const System& system, const SolverPa
 nlohmann::json describe_solver(const System& system, const ResolvedSolver& solver,
                                const Integrator& integrator);
 
+// The columns a resolved method's stepper adds to steps.csv (its own
+// StepRecord::method_values); none for SUNDIALS' packages.
+std::span<const StepColumn> step_columns(Method m);
+
 }  // namespace stickslip

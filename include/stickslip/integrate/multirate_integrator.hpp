@@ -84,6 +84,15 @@ class MultirateIntegrator final : public Integrator {
   SolverStats stats() const override;
   nlohmann::json description() const override;
 
+  // Its columns of steps.csv (StepRecord::method_values): the contacts each
+  // step left to their own sub-steps, and those sub-steps; and how far a
+  // fast contact's coarse node missed its sub-steps' end, as its neighbours
+  // felt it, weighted as a local error (≤ 1; 0 where no contact was apart).
+  // The record's error is the larger of the miss and the coarse estimate,
+  // so it says which of the two sized the step.
+  static constexpr std::array<StepColumn, 3> kStepColumns{
+      {{"fast_contacts", "", true}, {"substeps", "", true}, {"miss", "1", false}}};
+
   // Coupling passes (steps 2–5 above) allowed in one coarse attempt.
   static constexpr int kCouplingIterations = 4;
   // The coupling error (step 5, weighted) a fast contact may carry: like a

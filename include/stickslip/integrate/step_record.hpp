@@ -5,25 +5,29 @@
 // them (output/recorder.hpp) need nothing else of it.
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 
 namespace stickslip {
 
+// A column a stepper adds to steps.csv after the four every method writes
+// (the stepper declares them: step_columns in make_integrator.hpp), its value
+// in each StepRecord::method_values.
+struct StepColumn {
+  const char* name;
+  const char* unit;  // "" for a count
+  bool integer;
+};
+inline constexpr std::size_t kMaxStepColumns = 4;
+
 // One accepted step: where it ended, its size, the weighted RMS norm of
 // its local error estimate (≤ 1 for an accepted adaptive step; NaN where the
 // method has no estimate), and h times the fastest growth rate of a contact
-// past its peak force.
+// past its peak force; then the values of its stepper's own columns.
 struct StepRecord {
   double t = 0.0, h = 0.0, error = 0.0;
   double h_lambda = 0.0;  // h × System::weakening_rate at the step's end
-  // multirate: the contacts this step left to their own sub-steps, and those
-  // sub-steps (0 for the other methods).
-  long fast_contacts = 0, substeps = 0;
-  // multirate: how far the coarse node of a fast contact missed its
-  // sub-steps' end, as its neighbours felt it, weighted as a local error
-  // (≤ 1; 0 where no contact was apart). error is the larger of it and the
-  // coarse estimate, so it says which of the two sized the step.
-  double miss = 0.0;
+  std::array<double, kMaxStepColumns> method_values{};
 };
 
 // One attempt at a coarse step of method = "multirate" (multirate_integrator.hpp):
