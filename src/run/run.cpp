@@ -654,9 +654,9 @@ Summary CaseRun::finish() {
 }
 
 Summary run_case(const Case& c, const RunOptions& options) {
-  CaseRun run(c, options);
-  while (run.next_output() <= run.outputs()) run.output();
-  return run.finish();
+  CaseRun case_run(c, options);
+  while (case_run.next_output() <= case_run.outputs()) case_run.output();
+  return case_run.finish();
 }
 
 }  // namespace stickslip
