@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "sandbox.hpp"
+#include "test_cases.hpp"
 
 namespace test = stickslip::test;
 
@@ -23,17 +24,6 @@ using test::slurp;
 namespace fs = std::filesystem;
 
 namespace {
-
-const char* kTinyBase = R"([lattice]
-nx = 6
-ny = 6
-nz = 4
-[run]
-t_end = 3e-4
-average_from = 1e-4
-[output]
-interval = 1e-5
-)";
 
 const char* kTwoContacts = R"([lattice]
 nx = 6
@@ -77,7 +67,7 @@ void check_png(const fs::path& png) {
 TEST_CASE("fig7.py, fig9.py and epsilon.py plot the sweep's mean mu per coverage",
           "[slow][plots]") {
   Sandbox box("stickslip_plots_");
-  box.write("base.toml", kTinyBase);
+  box.write("base.toml", test::kTinyBaseToml);
   box.write("s.toml",
             "[sweep]\ncase = \"base.toml\"\n[vary]\ndrive.velocity = [1e-3, 2e-3]\n"
             "interface.coverage = [0.2, 0.5]\ninterface.seed = [1, 2]\n");
@@ -146,7 +136,7 @@ TEST_CASE("fig7.py, fig9.py and epsilon.py plot the sweep's mean mu per coverage
 TEST_CASE("fig7.py on a sweep that varies neither v nor the lattice takes both from its points",
           "[slow][plots]") {
   Sandbox box("stickslip_plots_");
-  box.write("base.toml", std::string(kTinyBase) + "[drive]\nvelocity = 2e-3\n");
+  box.write("base.toml", std::string(test::kTinyBaseToml) + "[drive]\nvelocity = 2e-3\n");
   box.write("c.toml",
             "[sweep]\ncase = \"base.toml\"\n[vary]\ninterface.coverage = [0.2, 0.5]\n"
             "interface.seed = [1, 2]\n");
@@ -171,7 +161,7 @@ TEST_CASE("fig7.py on a sweep that varies neither v nor the lattice takes both f
 TEST_CASE("fig8.py, fig10.py, traces.py and pair_separation.py plot what the runs wrote",
           "[slow][plots]") {
   Sandbox box("stickslip_plots_");
-  box.write("base.toml", kTinyBase);
+  box.write("base.toml", test::kTinyBaseToml);
   box.write("two.toml", kTwoContacts);
   REQUIRE(box.run({"run", "base.toml", "--out", "low", "--set", "interface.coverage=0.1", "--set",
                    "drive.velocity=2e-3"})
@@ -467,7 +457,7 @@ TEST_CASE(
 TEST_CASE("patch_size.py: mu and F_f's spread per patch size and coverage, means over seeds",
           "[slow][plots]") {
   Sandbox box("stickslip_plots_");
-  box.write("base.toml", kTinyBase);
+  box.write("base.toml", test::kTinyBaseToml);
   box.write("p.toml",
             "[sweep]\ncase = \"base.toml\"\n[vary]\ninterface.coverage = [0.2, 0.5]\n"
             "interface.seed = [1, 2]\n[[vary.together]]\nlattice.nx = [6, 8]\n"
