@@ -2,6 +2,9 @@
 """Velocity traces of the traced contacts, one panel per contact (the paper's Fig. 10).
 
 Usage: /usr/bin/python3 plots/traces.py OUTDIR   -> OUTDIR/traces.png and traces.pdf
+
+Prints what each panel shows (the contact, its samples, its largest v_x and
+its v*) and the title, so the figure can be checked against the run's tables.
 """
 import json
 import sys
@@ -38,9 +41,12 @@ def main() -> int:
         vx = traces[f"vx_{cid}"]
         ax.plot(t_ms, vx, lw=0.8, color="C0")
         label = f"contact {cid}"
+        shown = f"contact {cid}: {len(vx)} samples, max vx = {max(vx):.9g} m/s"
         if cid in v_star:
             label += f", v* = {v_star[cid]:.3g} m/s"
+            shown += f", v* = {v_star[cid]:.9g} m/s"
             ax.axhline(v_star[cid], color="C3", lw=0.6, ls="--", label="v*")
+        print(shown)
         if drive is not None:
             ax.axhline(drive, color="0.5", lw=0.6, ls=":", label="drive v")
         ax.set_ylabel("$v_x$ (m/s)")
@@ -48,7 +54,9 @@ def main() -> int:
         ax.legend(fontsize=7, loc="upper right")
     axes[-1, 0].set_xlabel("time (ms)")
     if summary:
-        fig.suptitle(f"μ = {summary['mu']:.4f}, θ = {summary['theta']:.4g}", fontsize=10)
+        title = f"μ = {summary['mu']:.4f}, θ = {summary['theta']:.4g}"
+        fig.suptitle(title, fontsize=10)
+        print(f"title: {title}")
     fig.tight_layout()
     fig.savefig(out / "traces.png", dpi=120)
     fig.savefig(out / "traces.pdf")

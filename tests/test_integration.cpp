@@ -120,20 +120,7 @@ TEST_CASE("cases/steady.toml reaches the exact steady-sliding mu", "[steady]") {
   // Every contact must be in the steady regime v* ≥ 3v for §7's formula.
   for (const auto& ct : contacts) REQUIRE(ct.v_star >= 3 * c.drive.velocity);
 
-  // μ = (τ_f/P0) mean φ(v/v*) + m η_c v / (ε P0 a²), written out from MODEL.md §7.
-  const auto& i = c.interface;
-  const double a = c.lattice.spacing, m = c.material.density * a * a * a;
-  const double nu = c.material.poisson_ratio, e = c.material.youngs_modulus,
-               rho = c.material.density;
-  const double g1 = e / (2 * (1 + nu) * rho), g2 = (1 + 2 * nu) * g1;
-  const double eta_c = c.damping.contact * std::sqrt(g1 + g2) / a;
-  double mean_phi = 0.0;
-  for (const auto& ct : contacts) {
-    const double l = std::log10(c.drive.velocity / ct.v_star);
-    mean_phi += std::exp(-i.shape * l * l) / static_cast<double>(contacts.size());
-  }
-  const double exact = i.shear_stress / i.max_pressure * mean_phi +
-                       m * eta_c * c.drive.velocity / (i.epsilon * i.max_pressure * a * a);
+  const double exact = stickslip::test::steady_sliding_mu_exact(c, contacts);
 
   RunOptions options;
   const ::test::TempDir tmp("stickslip_test_steady");

@@ -13,6 +13,7 @@
 #include "stickslip/model/system.hpp"
 #include "stickslip/run/run.hpp"
 #include "temp_dir.hpp"
+#include "test_cases.hpp"
 
 using namespace stickslip;
 
@@ -130,21 +131,8 @@ TEST_CASE("with 2x2 patches, cases/steady.toml reaches the exact steady-sliding 
   REQUIRE(contacts.size() == 5);  // round(0.5 · 36 / 4): 20 of 36 nodes covered
   for (const auto& ct : contacts) REQUIRE(ct.v_star >= 3 * c.drive.velocity);
 
-  // MODEL.md §7 and §14: μ = (τ_f/P0) mean φ(v/v*) + m η_c v / (ε P0 a²), the
-  // mean over patches (every patch has R² sites), written out.
-  const auto& i = c.interface;
-  const double a = c.lattice.spacing, m = c.material.density * a * a * a;
-  const double nu = c.material.poisson_ratio, e = c.material.youngs_modulus,
-               rho = c.material.density;
-  const double g1 = e / (2 * (1 + nu) * rho), g2 = (1 + 2 * nu) * g1;
-  const double eta_c = c.damping.contact * std::sqrt(g1 + g2) / a;
-  double mean_phi = 0.0;
-  for (const auto& ct : contacts) {
-    const double l = std::log10(c.drive.velocity / ct.v_star);
-    mean_phi += std::exp(-i.shape * l * l) / static_cast<double>(contacts.size());
-  }
-  const double exact = i.shear_stress / i.max_pressure * mean_phi +
-                       m * eta_c * c.drive.velocity / (i.epsilon * i.max_pressure * a * a);
+  // MODEL.md §7 and §14: the mean over patches.
+  const double exact = stickslip::test::steady_sliding_mu_exact(c, contacts);
 
   RunOptions options;
   const test::TempDir tmp("stickslip_test_patch_steady");

@@ -5,6 +5,7 @@
 #include <array>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -15,25 +16,19 @@
 #include <sstream>
 
 #include "sandbox.hpp"
+#include "stickslip/output/tables.hpp"
+#include "test_cases.hpp"
 
 namespace test = stickslip::test;
 
+using stickslip::member_column;
+using stickslip::read_run_table;
+using stickslip::TraceTable;
 using test::Sandbox;
 using test::slurp;
 namespace fs = std::filesystem;
 
 namespace {
-
-const char* kTinyBase = R"([lattice]
-nx = 6
-ny = 6
-nz = 4
-[run]
-t_end = 3e-4
-average_from = 1e-4
-[output]
-interval = 1e-5
-)";
 
 const char* kTwoContacts = R"([lattice]
 nx = 6
@@ -77,7 +72,7 @@ void check_png(const fs::path& png) {
 TEST_CASE("fig7.py, fig9.py and epsilon.py plot the sweep's mean mu per coverage",
           "[slow][plots]") {
   Sandbox box("stickslip_plots_");
-  box.write("base.toml", kTinyBase);
+  box.write("base.toml", test::kTinyBaseToml);
   box.write("s.toml",
             "[sweep]\ncase = \"base.toml\"\n[vary]\ndrive.velocity = [1e-3, 2e-3]\n"
             "interface.coverage = [0.2, 0.5]\ninterface.seed = [1, 2]\n");
@@ -146,7 +141,7 @@ TEST_CASE("fig7.py, fig9.py and epsilon.py plot the sweep's mean mu per coverage
 TEST_CASE("fig7.py on a sweep that varies neither v nor the lattice takes both from its points",
           "[slow][plots]") {
   Sandbox box("stickslip_plots_");
-  box.write("base.toml", std::string(kTinyBase) + "[drive]\nvelocity = 2e-3\n");
+  box.write("base.toml", std::string(test::kTinyBaseToml) + "[drive]\nvelocity = 2e-3\n");
   box.write("c.toml",
             "[sweep]\ncase = \"base.toml\"\n[vary]\ninterface.coverage = [0.2, 0.5]\n"
             "interface.seed = [1, 2]\n");
@@ -171,7 +166,7 @@ TEST_CASE("fig7.py on a sweep that varies neither v nor the lattice takes both f
 TEST_CASE("fig8.py, fig10.py, traces.py and pair_separation.py plot what the runs wrote",
           "[slow][plots]") {
   Sandbox box("stickslip_plots_");
-  box.write("base.toml", kTinyBase);
+  box.write("base.toml", test::kTinyBaseToml);
   box.write("two.toml", kTwoContacts);
   REQUIRE(box.run({"run", "base.toml", "--out", "low", "--set", "interface.coverage=0.1", "--set",
                    "drive.velocity=2e-3"})
@@ -210,6 +205,41 @@ TEST_CASE("fig8.py, fig10.py, traces.py and pair_separation.py plot what the run
   INFO(tr.out);
   REQUIRE(tr.code == 0);
   check_png(box.work / "b" / "traces.png");
+  // One panel per traced contact, the figure 8 × (2.2 n + 0.6) inches at
+  // 120 dpi (plots/traces.py): 960 × 600 pixels for the pair, as the PNG's
+  // header (its IHDR chunk) gives them.
+  const std::string png = slurp(box.work / "b" / "traces.png");
+  REQUIRE(png.size() > 24);
+  CHECK(png.substr(12, 4) == "IHDR");
+  auto big_endian = [&](std::size_t at) {
+    std::uint32_t value = 0;
+    for (std::size_t k = 0; k < 4; ++k)
+      value = value << 8 | static_cast<unsigned char>(png[at + k]);
+    return value;
+  };
+  CHECK(big_endian(16) == 960);
+  CHECK(big_endian(20) == 600);
+  // Each panel shows its contact's trace as the run wrote it: every sample
+  // (0.3 ms at 1e-6 s), its largest v_x as read back here, and the v* the
+  // run was given; the title gives summary.json's μ and θ.
+  const TraceTable traces = read_run_table(box.work / "b", "traces");
+  REQUIRE(traces.t.size() == 301);
+  const std::array<double, 2> v_star{4.75e-4, 2.09e-3};
+  for (int id : {0, 1}) {
+    const auto& vx = traces.column(member_column("vx", id));
+    char expect[160];
+    std::snprintf(expect, sizeof expect,
+                  "contact %d: %zu samples, max vx = %.9g m/s, v* = %.9g m/s\n", id, vx.size(),
+                  *std::max_element(vx.begin(), vx.end()), v_star[static_cast<std::size_t>(id)]);
+    CHECK_THAT(tr.out, Catch::Contains(expect));
+  }
+  {
+    const auto s = nlohmann::json::parse(slurp(box.work / "b" / "summary.json"));
+    char expect[96];
+    std::snprintf(expect, sizeof expect, "title: μ = %.4f, θ = %.4g\n", s["mu"].get<double>(),
+                  s["theta"].get<double>());
+    CHECK_THAT(tr.out, Catch::Contains(expect));
+  }
 
   box.write("pairs.toml",
             "[sweep]\ncase = \"two.toml\"\n[vary.interface.contacts]\n"
@@ -467,7 +497,7 @@ TEST_CASE(
 TEST_CASE("patch_size.py: mu and F_f's spread per patch size and coverage, means over seeds",
           "[slow][plots]") {
   Sandbox box("stickslip_plots_");
-  box.write("base.toml", kTinyBase);
+  box.write("base.toml", test::kTinyBaseToml);
   box.write("p.toml",
             "[sweep]\ncase = \"base.toml\"\n[vary]\ninterface.coverage = [0.2, 0.5]\n"
             "interface.seed = [1, 2]\n[[vary.together]]\nlattice.nx = [6, 8]\n"

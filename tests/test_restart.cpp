@@ -3,7 +3,8 @@
 // in either output format; a restart with another case is refused, naming
 // what differs; the command an interrupted run prints continues it from any
 // directory; a finished run that kept its final state continues to a later
-// t_end as if it had run there straight.
+// t_end as if it had run there straight; and each start and each refusal of
+// restart admission (plan_output_dir) on the directories a run leaves.
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -15,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "sandbox.hpp"
@@ -25,6 +27,7 @@
 #include "stickslip/output/summary.hpp"
 #include "stickslip/output/tables.hpp"
 #include "stickslip/output/writers.hpp"
+#include "stickslip/run/resume.hpp"
 #include "stickslip/run/run.hpp"
 #include "stickslip/version.hpp"
 #include "temp_dir.hpp"
@@ -453,6 +456,145 @@ TEST_CASE("the command an interrupted run prints continues it as given from any 
   const auto t = times(here / "part dir", "friction");
   REQUIRE(t.size() == 1501);  // every output time once: no gap, no duplicate
   for (std::size_t k = 0; k < t.size(); ++k) CHECK(t[k] == Approx(1e-6 * double(k)));
+}
+
+namespace {
+
+// A fresh start's refusal by plan_output_dir, if it gave one.
+std::optional<ResumableRunError> refusal_of(const Case& c, const DirectoryRequest& request) {
+  try {
+    plan_output_dir(c, request);
+  } catch (const ResumableRunError& e) {
+    return e;
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+TEST_CASE("plan_output_dir decides each start and each refusal, reading the directory only",
+          "[restart]") {
+  // Every way the directory and the request meet, without running anything:
+  // the checkpoints and summaries are written as a run would leave them.
+  test::Sandbox box("stickslip_plan_");
+  const Case c = parse_case(kTiny, box.work / "tiny.toml");  // t_end = 2e-5
+  const fs::path dir = box.work / "run";
+  fs::create_directories(dir);
+  auto ending_at = [&](double t_end) {
+    Case k = c;
+    k.run.t_end = t_end;
+    return k;
+  };
+  auto checkpoint_at = [&](double t, const std::string& commit) {
+    Checkpoint k;
+    k.t = t;
+    k.output_index = 10;
+    k.case_json = to_json(c);
+    k.git_commit = commit;
+    k.segments = {{0.0, commit}};
+    write_checkpoint(dir, k);
+  };
+  auto finished_at = [&](double t_end) {
+    Summary s;
+    s.t_end = t_end;
+    s.average_from = c.run.average_from;
+    s.case_json = to_json(c);
+    write_summary(dir, s);
+  };
+  const DirectoryRequest fresh{.dir = dir}, overwrite{.dir = dir, .overwrite = true},
+      restart{.dir = dir, .restart = true},
+      any_version{.dir = dir, .restart = true, .any_version = true};
+  using Kind = ResumePlan::Kind;
+
+  // Nothing there: a fresh start; nothing to restart.
+  CHECK(plan_output_dir(c, fresh).kind == Kind::fresh);
+  CHECK_THROWS_WITH(plan_output_dir(c, restart), Catch::Contains("no checkpoint to restart from"));
+
+  // An interrupted run at 1e-5 s.
+  checkpoint_at(1e-5, kGitCommit);
+  auto before = box.snapshot();
+  {
+    const auto refused = refusal_of(c, fresh);
+    REQUIRE(refused);
+    CHECK_THAT(refused->what(), Catch::Contains("holds an interrupted run of this case "
+                                                "(checkpoint.bin at t = 1e-05 s)"));
+    CHECK_FALSE(refused->needs_any_version);
+  }
+  CHECK(plan_output_dir(c, overwrite).kind == Kind::fresh);
+  const ResumePlan continued = plan_output_dir(c, restart);
+  CHECK(continued.kind == Kind::continue_checkpoint);
+  REQUIRE(continued.checkpoint);
+  CHECK(continued.checkpoint->t == 1e-5);
+  // run.t_end may move, to any time not before the checkpoint's.
+  CHECK(plan_output_dir(ending_at(1.5e-5), restart).kind == Kind::continue_checkpoint);
+  CHECK(plan_output_dir(ending_at(1e-5), restart).kind == Kind::continue_checkpoint);
+  CHECK_THROWS_WITH(plan_output_dir(ending_at(5e-6), restart),
+                    Catch::Contains("run.t_end = 5e-06 s is before t = 1e-05 s"));
+  CHECK(plan_output_dir(ending_at(5e-6), fresh).kind == Kind::fresh);  // no run it continues
+  // Any other key may not.
+  Case other = c;
+  other.drive.velocity = 2e-3;
+  CHECK_THROWS_WITH(plan_output_dir(other, restart),
+                    Catch::Contains("written for a different case (drive.velocity: 0.001 in "
+                                    "the checkpoint, 0.002 in the case)"));
+  CHECK(plan_output_dir(other, fresh).kind == Kind::fresh);
+  CHECK(box.snapshot() == before);
+
+  // The same, written by another code version: continued only when asked.
+  checkpoint_at(1e-5, "0000000");
+  before = box.snapshot();
+  {
+    const auto refused = refusal_of(c, fresh);
+    REQUIRE(refused);
+    CHECK(refused->needs_any_version);
+    CHECK_THAT(refused->what(), Catch::Contains("code version 0000000's: --any-version"));
+  }
+  CHECK_THROWS_WITH(plan_output_dir(c, restart),
+                    Catch::Contains("written by code version 0000000"));
+  CHECK(plan_output_dir(c, any_version).kind == Kind::continue_checkpoint);
+  CHECK(box.snapshot() == before);
+
+  // A damaged checkpoint: no run to continue; a restart says why.
+  test::spit(dir / kCheckpointFile, "not a checkpoint\n");
+  CHECK(plan_output_dir(c, fresh).kind == Kind::fresh);
+  CHECK_THROWS_WITH(plan_output_dir(c, restart), Catch::Contains("not a stickslip checkpoint"));
+
+  // A run finished at t_end = 2e-5 s that kept its final state: continued to
+  // a later t_end only.
+  checkpoint_at(2e-5, kGitCommit);
+  finished_at(2e-5);
+  before = box.snapshot();
+  CHECK(plan_output_dir(c, fresh).kind == Kind::fresh);  // results: prepare_output_dir refuses
+  {
+    const auto refused = refusal_of(ending_at(4e-5), fresh);
+    REQUIRE(refused);
+    CHECK_THAT(refused->what(),
+               Catch::Contains("finished at t = 2e-05 s with its final state kept, which "
+                               "run.t_end = 4e-05 s extends"));
+  }
+  CHECK_THROWS_WITH(plan_output_dir(c, restart),
+                    Catch::Contains("has finished (summary.json exists); a later run.t_end"));
+  const ResumePlan extended = plan_output_dir(ending_at(4e-5), restart);
+  CHECK(extended.kind == Kind::extend_finished);
+  REQUIRE(extended.checkpoint);
+  CHECK(extended.checkpoint->t == 2e-5);
+  // A summary.json this code did not write: finished, but not continued.
+  test::spit(dir / kSummaryFile, "{}");
+  CHECK_THROWS_WITH(plan_output_dir(ending_at(4e-5), restart),
+                    Catch::Contains("has finished") && Catch::Contains("another code version?"));
+  CHECK(plan_output_dir(ending_at(4e-5), fresh).kind == Kind::fresh);
+  finished_at(2e-5);
+  CHECK(box.snapshot() == before);
+
+  // Finished without its final state: nothing to continue from.
+  fs::remove(dir / kCheckpointFile);
+  before = box.snapshot();
+  CHECK_THROWS_WITH(plan_output_dir(ending_at(4e-5), restart),
+                    Catch::Contains("without keeping its final state"));
+  CHECK_THROWS_WITH(plan_output_dir(c, restart),
+                    Catch::EndsWith("the run there has finished (summary.json exists)"));
+  CHECK(plan_output_dir(ending_at(4e-5), fresh).kind == Kind::fresh);
+  CHECK(box.snapshot() == before);
 }
 
 TEST_CASE("a refused restart names the keys that differ and changes nothing", "[restart]") {

@@ -42,8 +42,11 @@
 
 #include "stickslip/case/case.hpp"
 #include "stickslip/case/methods.hpp"
+#include "stickslip/case/placement.hpp"
 #include "stickslip/integrate/sundials.hpp"
+#include "stickslip/output/tables.hpp"
 #include "stickslip/run/run.hpp"
+#include "test_cases.hpp"
 
 using namespace stickslip;
 namespace fs = std::filesystem;
@@ -165,6 +168,76 @@ std::optional<std::string> non_finite_field(const fs::path& dir, bool allow_nan_
     }
   }
   return std::nullopt;
+}
+
+// What a finished run reports of μ and its events, against what the model
+// and its own tables say independently of the number reported:
+//  - F_N = ε P0 a² N_c (MODEL.md §7, θ = N_c / (Nx Ny)), N_c from the case;
+//  - steady_sliding_mu is §7's formula (test_cases.hpp writes it out);
+//  - μ, averaged from the friction impulse, is the mean of friction.csv's
+//    F_f samples over [t_avg, t_end] (trapezoids) over F_N, and positive: the
+//    plate runs ahead of the block it drags from rest, the contacts resist;
+//  - each contact's events alternate slip, stick, ..., from a slip (every
+//    contact starts at rest, stuck: |s| = 0 < κ v*), in time order within
+//    the run; summary.json's counts are events.csv's.
+void check_finished_run(const Case& c, const Summary& r, const fs::path& dir) {
+  const auto& i = c.interface;
+  REQUIRE(i.patch == 1);  // one site per contact: N_c sites bear the load
+  const double sites = static_cast<double>(c.lattice.nx) * c.lattice.ny;
+  const auto contacts =
+      i.contacts.empty() ? static_cast<std::size_t>(i.coverage * sites + 0.5) : i.contacts.size();
+  const double a = c.lattice.spacing;
+  CHECK(r.contacts == static_cast<long>(contacts));
+  CHECK(r.F_N == Approx(i.epsilon * i.max_pressure * a * a * double(contacts)).epsilon(1e-12));
+  const auto placed = place_contacts(c.lattice, c.interface);
+  CHECK(r.steady_sliding_mu ==
+        Approx(stickslip::test::steady_sliding_mu_exact(c, placed)).epsilon(1e-12));
+
+  const TraceTable friction = read_run_table(dir, run_table::kFriction);
+  const auto& force = friction.column("F_f");
+  const double t_avg = c.run.average_from, t_end = c.run.t_end;
+  double impulse = 0.0;
+  for (std::size_t k = 1; k < friction.t.size(); ++k)
+    if (friction.t[k - 1] >= t_avg && friction.t[k] <= t_end)
+      impulse += 0.5 * (force[k - 1] + force[k]) * (friction.t[k] - friction.t[k - 1]);
+  REQUIRE(friction.t.back() == Approx(t_end).epsilon(1e-12));
+  const double mu_rows = impulse / ((t_end - t_avg) * r.F_N);
+  INFO("mu " << r.mu << ", from friction.csv's rows " << mu_rows);
+  CHECK(r.mu > 0.0);
+  // Samples every output interval: trapezoids miss the shape of F_f within
+  // one (a slip's drop takes a few of them), far below a wrong window or
+  // normalization.
+  CHECK(r.mu == Approx(mu_rows).epsilon(1e-2));
+
+  const auto events = read_run_events(dir);
+  REQUIRE(r.events);
+  CHECK(r.events->count == static_cast<long>(events.size()));
+  std::map<int, EventKind> last;  // each contact's last event so far
+  std::map<int, long> slips_in_window;
+  for (std::size_t k = 0; k < events.size(); ++k) {
+    const Event& e = events[k];
+    INFO("event " << k << ": t = " << e.t << ", contact " << e.contact);
+    CHECK(e.t >= 0.0);
+    CHECK(e.t <= t_end);
+    if (k > 0) CHECK(e.t >= events[k - 1].t);
+    REQUIRE(e.contact >= 0);
+    REQUIRE(e.contact < static_cast<int>(contacts));
+    const auto it = last.find(e.contact);
+    const EventKind expected =
+        it == last.end() || it->second == EventKind::stick ? EventKind::slip : EventKind::stick;
+    CHECK(e.kind == expected);
+    last[e.contact] = e.kind;
+    if (e.kind == EventKind::slip && e.t >= t_avg && e.t <= t_end) ++slips_in_window[e.contact];
+  }
+  CHECK(r.events->window_from == t_avg);
+  CHECK(r.events->window_to == t_end);
+  REQUIRE(r.events->per_contact.size() == contacts);  // every contact is watched by default
+  for (const auto& stats : r.events->per_contact) {
+    INFO("contact " << stats.contact);
+    CHECK(stats.slips == slips_in_window[stats.contact]);
+    CHECK(stats.slipping_fraction >= 0.0);
+    CHECK(stats.slipping_fraction <= 1.0);
+  }
 }
 
 // Aborts the executable, naming the run, if it is not disarmed within `limit`:
@@ -324,6 +397,7 @@ void stress(const Row& row) {
     CHECK(std::abs(result->energy_residual) <= row.residual_per_rtol * rtol);
     CHECK(result->solver_stats.steps <= row.max_steps);
     CHECK(fs::exists(dir / "summary.json"));
+    check_finished_run(c, *result, dir);
   } else {
     CHECK(row.expect != Expect::finish);
     CHECK_THAT(error, Catch::Matchers::Contains("t = "));

@@ -22,18 +22,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// 6×6×4, 0.3 ms: a point takes well under a second.
-const char* kBase = R"([lattice]
-nx = 6
-ny = 6
-nz = 4
-[run]
-t_end = 3e-4
-average_from = 1e-4
-[output]
-interval = 1e-5
-)";
-
 const char* kTiny = R"([sweep]
 case = "base.toml"
 [vary]
@@ -70,7 +58,7 @@ fs::file_time_type mtime(const fs::path& p) {
 TEST_CASE("a sweep runs every combination once, and started again only what is unfinished",
           "[sweep]") {
   Sandbox box;
-  box.write("base.toml", kBase);
+  box.write("base.toml", test::kTinyBaseToml);
   box.write("tiny.toml", kTiny);
   const auto first = box.run({"sweep", "tiny.toml", "--jobs", "2"});
   INFO(first.out << first.err);
@@ -147,7 +135,7 @@ TEST_CASE("a sweep runs every combination once, and started again only what is u
 TEST_CASE("a sweep refuses results of another code version or case unless told to recompute",
           "[sweep]") {
   Sandbox box;
-  box.write("base.toml", kBase);
+  box.write("base.toml", test::kTinyBaseToml);
   box.write("tiny.toml", kTiny);
   REQUIRE(box.run({"sweep", "tiny.toml", "--jobs", "2"}).code == 0);
   const fs::path point = box.work / "out" / "tiny" / "coverage=0.5_seed=1";
@@ -176,7 +164,7 @@ TEST_CASE("a sweep refuses results of another code version or case unless told t
              !Catch::Contains(",0000000,") && Catch::Contains("stale"));
 
   // A changed base case makes every point stale.
-  box.write("base.toml", std::string(kBase) + "[drive]\nvelocity = 2e-3\n");
+  box.write("base.toml", std::string(test::kTinyBaseToml) + "[drive]\nvelocity = 2e-3\n");
   const auto changed = box.run({"sweep", "tiny.toml"});
   CHECK(changed.code == 2);
   CHECK_THAT(changed.err, Catch::Contains("different case") && Catch::Contains("3 more points"));
@@ -218,7 +206,7 @@ TEST_CASE("mpirun -n 2 gives the same sweep.csv as --jobs 2", "[sweep][mpi][may_
   std::cout << "SKIPPED: built without MPI\n";
 #else
   Sandbox box;
-  box.write("base.toml", kBase);
+  box.write("base.toml", test::kTinyBaseToml);
   box.write("tiny.toml", kTiny);
   REQUIRE(box.run({"sweep", "tiny.toml", "--jobs", "2", "--out", "jobs"}).code == 0);
   // OpenMPI refuses to run as root unless told; --oversubscribe for 1-core machines.
@@ -244,9 +232,9 @@ TEST_CASE("mpirun -n 2 gives the same sweep.csv as --jobs 2", "[sweep][mpi][may_
 TEST_CASE("bad sweep files are refused: exit 2, file, line and key, nothing run",
           "[sweep][bad_input]") {
   Sandbox box;
-  box.write("base.toml", kBase);
+  box.write("base.toml", test::kTinyBaseToml);
   box.write("pair.toml",
-            std::string(kBase) +
+            std::string(test::kTinyBaseToml) +
                 "[interface]\ncontacts = [ { site = [1, 2], v_star = 4.75e-4 }, { site "
                 "= [4, 2], v_star = 2.09e-3 } ]\n");
   struct Row {
@@ -324,7 +312,7 @@ TEST_CASE("bad sweep files are refused: exit 2, file, line and key, nothing run"
 TEST_CASE("[set] and [vary] values are judged on whole points, not on the base case alone",
           "[sweep][bad_input]") {
   Sandbox box;
-  box.write("base.toml", kBase);  // t_end = 3e-4
+  box.write("base.toml", test::kTinyBaseToml);  // t_end = 3e-4
   // average_from = 4e-4 is refused with the base case's t_end, and fine on every point.
   box.write("later.toml",
             "[sweep]\ncase = \"base.toml\"\n[set]\nrun.average_from = 4e-4\n[vary]\nrun.t_end = "
@@ -369,7 +357,7 @@ TEST_CASE("[set] and [vary] values are judged on whole points, not on the base c
 
 TEST_CASE("keys in [[vary.together]] change in step, the groups combine", "[sweep]") {
   Sandbox box;
-  box.write("base.toml", kBase);
+  box.write("base.toml", test::kTinyBaseToml);
   const auto file = box.write("s.toml", R"([sweep]
 case = "base.toml"
 [vary]
@@ -545,7 +533,7 @@ atol_velocity = 1e-8
 TEST_CASE("a sweep split into job-array shards makes the same tables as one run",
           "[sweep][shard]") {
   Sandbox box;
-  box.write("base.toml", kBase);
+  box.write("base.toml", test::kTinyBaseToml);
   box.write("tiny.toml", kTiny);
   REQUIRE(box.run({"sweep", "tiny.toml", "--jobs", "2", "--out", "whole"}).code == 0);
 
@@ -615,7 +603,7 @@ TEST_CASE("a sweep split into job-array shards makes the same tables as one run"
 TEST_CASE("points side by side run on one thread each, one at a time, on the case's threads",
           "[sweep][threads]") {
   Sandbox box;
-  box.write("base.toml", kBase);
+  box.write("base.toml", test::kTinyBaseToml);
   box.write("tiny.toml", kTiny);
   // Every point's case asks for three threads: side by side the sweep
   // overrides it, one at a time it stands. (The default, 0, would mean one
@@ -644,7 +632,7 @@ TEST_CASE("points side by side run on one thread each, one at a time, on the cas
 
 TEST_CASE("a --jobs below 1 is bad input, in one readable line", "[sweep]") {
   Sandbox box;
-  box.write("base.toml", kBase);
+  box.write("base.toml", test::kTinyBaseToml);
   box.write("tiny.toml", kTiny);
   const auto before = box.snapshot();
   const auto r = box.run({"sweep", "tiny.toml", "--jobs", "0"});

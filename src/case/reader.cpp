@@ -426,7 +426,8 @@ const std::vector<Entry>& schema() {
        {read_method, row_names(methods()),
         [](const Case& c) { return nlohmann::json(to_string(c.solver.method)); }},
        "",
-       "the integrator; \"auto\" chooses one for the case (README, Methods)"},
+       "the integrator; \"auto\" chooses one for the case (docs/USAGE.md, \"Methods and "
+       "accuracy\")"},
       {"solver",
        "linear_solver",
        {read_linear_solver, row_names(linear_solvers()),
@@ -734,7 +735,8 @@ void check_consistency(const Reader& r, const Case& c) {
   check_ids(c.output.trace_ids, r.trace_ids, "output.traces");
   check_ids(c.output.event_ids, r.event_ids, "output.events");
 
-  // The method's row (case/methods.hpp); "auto" allows what both its choices allow.
+  // The method's row (case/methods.hpp); "auto" is checked against imex's
+  // (validated_as, case/case.hpp).
   const MethodInfo& m = method_info(validated_as(c.solver.method));
   const SolverParams& s = c.solver;
   const std::string name = "\"" + std::string(to_string(s.method)) + "\"";

@@ -19,6 +19,7 @@
 #include "stickslip/case/reader.hpp"
 #include "stickslip/integrate/errors.hpp"
 #include "stickslip/output/writers.hpp"
+#include "stickslip/run/resume.hpp"
 #include "stickslip/run/run.hpp"
 #include "stickslip/sweep/sweep.hpp"
 #include "stickslip/version.hpp"

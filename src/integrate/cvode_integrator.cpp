@@ -57,10 +57,6 @@ CvodeIntegrator::CvodeIntegrator(const System& system, const SolverParams& solve
   solve_lattice();  // as dirk's: a slip's onset needs more cuts of h
 }
 
-void CvodeMemDeleter::operator()(void* mem) const {
-  CVodeFree(&mem);
-}
-
 SolverStats CvodeIntegrator::stats() const {
   SolverStats s;
   CVodeGetNumSteps(mem(), &s.steps);

@@ -1,6 +1,7 @@
 #pragma once
-// The HDF5 side of output/tables.hpp (one file, a group per table), kept
-// apart so only this file and hdf5_tables.cpp see the HDF5 C API.
+// The HDF5 store of a run's tables (one file, a group per table), which
+// output/tables.hpp's make_table_store and readers call; kept apart so only
+// this file and hdf5_tables.cpp see the HDF5 C API.
 
 #include <filesystem>
 #include <memory>
@@ -9,13 +10,9 @@
 #include <utility>
 #include <vector>
 
-#include "stickslip/output/tables.hpp"
+#include "stickslip/output/table_store.hpp"
 
 namespace stickslip {
-
-// A recorder's row has a value per column (std::logic_error otherwise); both
-// stores check it (defined in tables.cpp).
-void check_row(std::span<const double> row, std::size_t columns);
 
 // The store of a run in `format = "hdf5"`: `file` created (replacing any) or,
 // on a restart, opened for appending. OutputError if it cannot be.

@@ -25,6 +25,7 @@
 #include "stickslip/output/checkpoint.hpp"
 #include "stickslip/output/recorder.hpp"
 #include "stickslip/output/writers.hpp"
+#include "stickslip/run/resume.hpp"
 #include "stickslip/run/thread_governor.hpp"
 #include "stickslip/version.hpp"
 
@@ -187,11 +188,12 @@ struct CaseRun::State {
   const RunOptions options;
   const std::function<int()> stop_signal;
   const Clock::time_point wall_start = Clock::now();  // its set-up counts too
-  // The run this one continues, on a restart: its checkpoint, and whether the
-  // directory held it finished (open_output_dir sets both, before the System
-  // is built).
-  bool extends_finished = false;
-  const std::optional<Checkpoint> resume;
+  // The run this one continues, on a restart (open_output_dir decides, before
+  // the System is built): its checkpoint, and whether the directory held it
+  // finished.
+  const ResumePlan plan;
+  const std::optional<Checkpoint>& resume = plan.checkpoint;
+  const bool extends_finished = plan.kind == ResumePlan::Kind::extend_finished;
   // The model and its state: at t = 0, and now.
   const System system;
   std::vector<double> y0, y;
@@ -221,115 +223,16 @@ struct CaseRun::State {
 };
 
 namespace {
-std::string seconds(double t) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.9g s", t);
-  return text;
-}
-
-// The checkpoint in `dir` if `c` continues it: its case, but for a run.t_end
-// after the time it reached. Anything else (none, damaged, another case) is
-// no run this case continues.
-std::optional<Checkpoint> checkpoint_continued_by(const Case& c, const std::filesystem::path& dir) {
-  if (!std::filesystem::exists(dir / kCheckpointFile)) return std::nullopt;
-  try {
-    Checkpoint checkpoint = read_checkpoint(dir);
-    for (const auto& d : case_differences(checkpoint.case_json, c))
-      if (d.key != "run.t_end") return std::nullopt;
-    if (c.run.t_end < checkpoint.t) return std::nullopt;
-    return checkpoint;
-  } catch (const OutputError&) {
-    return std::nullopt;
-  }
-}
-
-// A fresh start in a directory holding a run of this case that a restart
-// continues: say so, rather than offer --overwrite, which would throw it away.
-void refuse_resumable(const Case& c, const std::filesystem::path& dir) {
-  const auto checkpoint = checkpoint_continued_by(c, dir);
-  if (!checkpoint) return;
-  std::optional<Summary> finished;
-  try {
-    finished = read_summary(dir);
-  } catch (const OutputError&) {
-    return;  // not a summary this code writes: the usual refusal names it
-  }
-  // A finished run this case does not extend is results, as ever.
-  if (finished && !(c.run.t_end > finished->t_end)) return;
-  std::string what =
-      dir.string() + ": holds " +
-      (finished ? "a run of this case finished at t = " + seconds(finished->t_end) +
-                      " with its final state kept, which run.t_end = " + seconds(c.run.t_end) +
-                      " extends"
-                : "an interrupted run of this case (" + std::string(kCheckpointFile) +
-                      " at t = " + seconds(checkpoint->t) + ")") +
-      ": continue it with --restart (from Python, restart=True), or pass --overwrite to start "
-      "afresh";
-  const bool other_version = checkpoint->git_commit != kGitCommit;
-  if (other_version)
-    what += " (its checkpoint is code version " + checkpoint->git_commit +
-            "'s: --any-version continues it)";
-  throw ResumableRunError(what, other_version);
-}
-
-// A restart continues from the checkpoint: same case, same code (or any
-// code, when asked); every recorder cuts its output back to the checkpoint's
-// time. The case may change run.t_end, to any time after the one the
-// checkpoint reached: a run continued past its first run.t_end (a finished
-// run keeps its final checkpoint when [output] final_state is set), or to an
-// earlier one it has not reached. `extends_finished`: the directory held a
-// finished run, which the restart continues.
-std::optional<Checkpoint> open_output_dir(const Case& c, const RunOptions& options,
-                                          bool& extends_finished) {
-  const auto& dir = options.out_dir;
-  if (!options.restart) {
-    if (!options.overwrite) refuse_resumable(c, dir);
-    prepare_output_dir(dir, options.overwrite, result_files());
-    return std::nullopt;
-  }
-  // A summary.json that does not parse (cut short outside this code, which
-  // writes it atomically) is no finished run: the restart replaces it.
-  std::optional<Summary> finished;
-  try {
-    finished = read_summary(dir);
-  } catch (const OutputError& e) {  // whole JSON, but not a summary this code writes
-    throw OutputError(dir.string() + ": the run there has finished (summary.json exists, " +
-                      "written by another code version?): " + e.what());
-  }
-  const auto file = (dir / kCheckpointFile).string();
-  if (finished && !std::filesystem::exists(file)) {
-    if (c.run.t_end > finished->t_end)
-      throw OutputError(dir.string() +
-                        ": the run there finished at t = " + seconds(finished->t_end) +
-                        " without keeping its final state, so it cannot be continued to "
-                        "run.t_end = " +
-                        seconds(c.run.t_end) +
-                        ": a run keeps it when its case sets [output] final_state = true (run "
-                        "it again with that, and --overwrite)");
-    throw OutputError(dir.string() + ": the run there has finished (summary.json exists)");
-  }
-  Checkpoint resume = read_checkpoint(dir);
-  const auto differences = case_differences(resume.case_json, c);
-  if (std::any_of(differences.begin(), differences.end(),
-                  [](const CaseDifference& d) { return d.key != "run.t_end"; }))
-    throw OutputError(file + ": written for a different case (" +
-                      describe(differences, "checkpoint") +
-                      "); a restart may change only run.t_end: restart with the case file it "
-                      "came from");
-  if (finished && c.run.t_end == resume.t)
-    throw OutputError(dir.string() +
-                      ": the run there has finished (summary.json exists); a later run.t_end "
-                      "(--set run.t_end=...) continues it");
-  if (c.run.t_end < resume.t)
-    throw OutputError(file + ": run.t_end = " + seconds(c.run.t_end) +
-                      " is before t = " + seconds(resume.t) +
-                      ", which the run there has already reached: a restart continues a run "
-                      "to a later time only");
-  if (resume.git_commit != kGitCommit && !options.any_version)
-    throw OutputError(file + ": written by code version " + resume.git_commit + ", this is " +
-                      kGitCommit + " (--any-version continues it anyway)");
-  extends_finished = finished.has_value();
-  return resume;
+// The plan for the output directory (run/resume.hpp), and a fresh start's
+// directory made ready: created, or its results removed with --overwrite.
+ResumePlan open_output_dir(const Case& c, const RunOptions& options) {
+  ResumePlan plan = plan_output_dir(c, {.dir = options.out_dir,
+                                        .restart = options.restart,
+                                        .overwrite = options.overwrite,
+                                        .any_version = options.any_version});
+  if (plan.kind == ResumePlan::Kind::fresh)
+    prepare_output_dir(options.out_dir, options.overwrite, result_files());
+  return plan;
 }
 }  // namespace
 
@@ -342,7 +245,7 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
     : c(c_),
       options(options_),
       stop_signal(options_.stop_signal ? options_.stop_signal : stop_signal_caught),
-      resume(open_output_dir(c_, options_, extends_finished)),
+      plan(open_output_dir(c_, options_)),
       system(c_, place_contacts(c_.lattice, c_.interface)),
       progress(!options_.quiet, c_.run.t_end, options_.on_progress) {
   const std::filesystem::path& dir = options.out_dir;
@@ -661,9 +564,9 @@ Summary CaseRun::finish() {
 }
 
 Summary run_case(const Case& c, const RunOptions& options) {
-  CaseRun run(c, options);
-  while (run.next_output() <= run.outputs()) run.output();
-  return run.finish();
+  CaseRun case_run(c, options);
+  while (case_run.next_output() <= case_run.outputs()) case_run.output();
+  return case_run.finish();
 }
 
 }  // namespace stickslip

@@ -167,10 +167,12 @@ const char* to_string(Method);
 const char* to_string(LinearSolver);
 const char* to_string(OutputFormat);
 
-// The method whose rules (fixed step, orders) a case is validated against:
-// itself, or for "auto" imex, whose rules are the narrowest of the methods
-// "auto" chooses between (imex for a fixed step, else dirk or bdf; see
-// choose_method in integrate/make_integrator.hpp).
+// The method whose rules (fixed step, orders, linear solver) a case is
+// validated against: itself, or for "auto" imex. So "auto" allows a fixed
+// step (it then runs imex), orders 3 to 5 and no [solver] linear_solver;
+// without a fixed step it runs dirk, bdf or multirate (choose_method in
+// integrate/make_integrator.hpp), whose rows allow adaptive steps and these
+// orders too, but for multirate's, which stops at order 4.
 Method validated_as(Method requested);
 
 }  // namespace stickslip

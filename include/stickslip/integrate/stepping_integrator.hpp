@@ -4,12 +4,15 @@
 // "too much work" return) to ask poll() and to hold max_steps over the whole
 // run; with steps recorded it takes one step per call (ONE_STEP mode) and
 // interpolates outputs exactly as normal mode does, so recording steps never
-// changes a run. ARKStep and CVODE give their calls the same signatures, their
-// return flags the same values and their callbacks the same signatures, so
-// each adapter hands this driver a table of its package's calls
-// (PackageCalls, as deal.II's ARKode holds its package's functions) and makes
-// the package's memory; the callbacks, the set-up both share, the stage and
-// linear solvers and what is read off the error estimate live here, once.
+// changes a run. ARKStep and CVODE give the calls made here the same
+// signatures, their return flags the same values (each adapter asserts it)
+// and their callbacks the same signatures, so each adapter hands this driver
+// a table of its package's calls (PackageCalls) and the package's memory it
+// made (adopt_package), which the table's `free` releases; the callbacks, the
+// set-up both share, the stage solvers (SUNDIALS nonlinear solvers that solve
+// each implicit stage exactly: contact by contact for imex, the lattice by FFT
+// and the contacts by Newton for dirk and bdf; no SUNDIALS linear solver) and
+// what is read off the error estimate live here, once.
 //
 // Output times must not change the solution either. Both packages choose
 // their first step from the first time asked for (h0 ≤ 0.1 (t_out − t0)), so

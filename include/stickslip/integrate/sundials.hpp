@@ -39,16 +39,14 @@ class SunContext {
 struct NVectorDeleter {
   void operator()(N_Vector v) const { N_VDestroy(v); }
 };
-// The integrators' memory blocks (ARKStepFree, CVodeFree; defined with the adapters).
+// An ARKStep memory block held outside an adapter (ARKStepFree; defined with
+// the ARKStep adapter). The adapters own theirs through their package's table
+// of calls (stepping_integrator.hpp).
 struct ArkodeMemDeleter {
-  void operator()(void* mem) const;
-};
-struct CvodeMemDeleter {
   void operator()(void* mem) const;
 };
 using NVectorPtr = std::unique_ptr<std::remove_pointer_t<N_Vector>, NVectorDeleter>;
 using ArkodeMemPtr = std::unique_ptr<void, ArkodeMemDeleter>;
-using CvodeMemPtr = std::unique_ptr<void, CvodeMemDeleter>;
 
 NVectorPtr make_serial_vector(std::span<const double> values, SUNContext ctx);
 

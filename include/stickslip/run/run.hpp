@@ -36,18 +36,6 @@ struct RunOptions {
   std::function<int()> stop_signal{};
 };
 
-// A run started afresh (no restart, no overwrite) in an output directory that
-// holds a run this case continues: stopped by a signal, or finished with its
-// final state kept and the case asking for a later run.t_end. A restart is
-// what the user wants, not --overwrite; the command line prints the command.
-class ResumableRunError : public OutputError {
- public:
-  ResumableRunError(const std::string& what, bool needs_any_version)
-      : OutputError(what), needs_any_version(needs_any_version) {}
-  // The checkpoint is another code version's: the restart needs --any-version.
-  bool needs_any_version;
-};
-
 // Thrown when SIGINT or SIGTERM stopped a run, after its final checkpoint was
 // written and every output flushed.
 struct Interrupted {
@@ -80,13 +68,14 @@ std::filesystem::path output_dir_for(const Case& c, const std::filesystem::path&
 
 // Runs the case and returns what it wrote to summary.json (IntegrationError
 // if the integration or its energy audit fails, OutputError for an unusable
-// output directory, Interrupted on SIGINT/SIGTERM). It is a CaseRun driven
-// output time by output time, then finished.
+// output directory or a refused restart, ResumableRunError (run/resume.hpp)
+// for a fresh start where a restart is wanted, Interrupted on SIGINT/SIGTERM).
+// It is a CaseRun driven output time by output time, then finished.
 Summary run_case(const Case& c, const RunOptions& options);
 
 // One run in its phases, for run_case and for tests that look inside it.
 //  - made: the output directory checked (or, on a restart, the checkpoint
-//    read and checked), the System, the recorders and the integrator set up,
+//    read and checked: run/resume.hpp), the System, the recorders and the integrator set up,
 //    and the first row recorded;
 //  - output(): integrates to the next output time (recording the stick/slip
 //    events on the way, stopping at t_avg for μ's impulse), records that row,
