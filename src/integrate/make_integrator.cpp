@@ -63,6 +63,9 @@ ResolvedSolver resolve_solver(const System& system, const SolverParams& given) {
   MethodChoice choice = choose_method(system, given);
   solver.params.method = choice.method;
   if (given.method == Method::automatic) solver.chosen_by = std::move(choice.reason);
+  solver.audit_bound = given.audit_bound > 0 ? given.audit_bound
+                       : given.step > 0      ? kFixedStepAuditBound
+                                             : 100 * given.rtol;
   return solver;
 }
 

@@ -45,9 +45,6 @@ constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 // A fixed-step run whose energy audit is off by this much has blown up.
 constexpr double kDivergedResidual = 0.5;
-// The energy-audit bound of a fixed-step run, which has no rtol: the
-// default tolerances' bound, 100 × 1e-6.
-constexpr double kFixedStepAuditBound = 1e-4;
 
 double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
@@ -506,11 +503,8 @@ Summary CaseRun::finish() {
   summary.energy_residual = system.energy_residual(t_end, y, s.y0);
   summary.solver_stats = s.total_stats();
   // A result whose energy audit is off by more than the tolerances can
-  // explain is not reported (docs/STABILITY.md: |R| ≈ 0.01–10 × rtol in sound
-  // runs; fixed steps are held to the default's bound).
-  const double audit_bound = c.solver.audit_bound > 0 ? c.solver.audit_bound
-                             : c.solver.step > 0      ? kFixedStepAuditBound
-                                                      : 100 * c.solver.rtol;
+  // explain is not reported (the bound: resolve_solver).
+  const double audit_bound = s.solver.audit_bound;
   // Below one absolute energy tolerance the residual of an adaptive run is
   // tolerance noise, not a relative error (a short run whose work done is
   // tiny: the integrals themselves are only controlled to that level). A

@@ -29,12 +29,20 @@ struct MethodChoice {
 };
 MethodChoice choose_method(const System& system, const SolverParams& solver);
 
+// The energy-audit bound of a fixed-step run, which has no rtol: the
+// default tolerances' bound, 100 × 1e-6.
+inline constexpr double kFixedStepAuditBound = 1e-4;
+
 // A case's [solver] as it is integrated: what its rules leave open decided
 // once, here, and handed down, so no part of a run applies a rule again.
 struct ResolvedSolver {
   SolverParams given;     // the case's own: what summary.json says was given
   SolverParams params;    // a method, never "auto"; atol_* by the rule where not given
   std::string chosen_by;  // why "auto" chose params.method; empty if the case named it
+  // The largest |energy-audit residual| at t_end a result may have:
+  // [solver] audit_bound, else 100 × rtol (sound runs show 0.01–10 × rtol,
+  // docs/STABILITY.md), or kFixedStepAuditBound for a fixed step.
+  double audit_bound = 0.0;
 };
 ResolvedSolver resolve_solver(const System& system, const SolverParams& given);
 
