@@ -89,8 +89,6 @@ System::System(const Case& c, std::vector<Contact> contacts)
       ny_(c.lattice.ny),
       nz_(c.lattice.nz),
       n_(std::int64_t{nx_} * ny_ * nz_),
-      threads_(resolved_threads(c.solver, n_)),
-      loop_threads_(threads_),
       contacts_(std::move(contacts)),
       patch_(c.interface.patch) {
   const auto& mat = c.material;
@@ -109,8 +107,8 @@ System::System(const Case& c, std::vector<Contact> contacts)
   eta_c_ = c.damping.contact * omega0;
   v_ = c.drive.velocity;
   const auto& iface = c.interface;
-  law_.shape = iface.shape;
   contact_force_scale_ = iface.epsilon * a_ * a_ * iface.shear_stress / mass_;
+  law_ = make_contact_law(iface, contact_force_scale_, eta_c_);
   if (patch_ < 1 || patch_ > std::min(nx_, ny_))
     throw std::invalid_argument("patch size outside [1, min(nx, ny)]");
   if (first_overlap(contacts_, patch_, nx_, ny_))
@@ -118,8 +116,9 @@ System::System(const Case& c, std::vector<Contact> contacts)
   for (const auto& ct : contacts_) {
     if (ct.ix < 0 || ct.ix >= nx_ || ct.iy < 0 || ct.iy >= ny_ || !(ct.v_star > 0.0))
       throw std::invalid_argument("contact outside the bottom layer or with v* <= 0");
+    const double scale = with_law([&](const auto& law) { return law.speed_scale(ct); });
     for (const auto& [x, y] : patch_sites(ct.ix, ct.iy, patch_, nx_, ny_))
-      sites_.push_back({x, y, node(x, y, 0), ct.v_star});
+      sites_.push_back({x, y, node(x, y, 0), scale});
   }
   // §7, §14: F_N = ε θ P0 Nx Ny a² with θ the covered fraction, sites/(Nx Ny).
   normal_force_ = iface.epsilon * static_cast<double>(sites_.size()) * iface.max_pressure * a_ * a_;
@@ -159,7 +158,8 @@ void System::initial_state(InitialState initial, std::span<double> y) const {
 // and their forces scattered to both ends, which counts periodic images with their multiplicity on
 // small lattices exactly as §3 defines.
 void System::lattice_accelerations(double t, std::span<const double> u_in,
-                                   std::span<const double> w_in, std::span<double> acc_out) const {
+                                   std::span<const double> w_in, std::span<double> acc_out,
+                                   int threads) const {
   const double* u = u_in.data();
   const double* w = w_in.data();
   double* acc = acc_out.data();
@@ -192,7 +192,7 @@ void System::lattice_accelerations(double t, std::span<const double> u_in,
     cells(iz, cell);
   };
   for (int parity = 0; parity < 2; ++parity)
-    parallel_for(loop_threads_, (nz_ - parity + 1) / 2,
+    parallel_for(threads, (nz_ - parity + 1) / 2,
                  [&](std::int64_t k) { layer(parity + 2 * static_cast<int>(k)); });
 
   // Drive springs and dashpots to the plate moving at (v, 0, 0) (§5).
@@ -202,18 +202,21 @@ void System::lattice_accelerations(double t, std::span<const double> u_in,
 }
 
 void System::add_contact_accelerations(std::span<const double> y, std::span<double> ydot) const {
-  for (std::size_t j = 0; j < sites_.size(); ++j) {
-    const auto a = site_acceleration(j, site_velocity(j, y));
-    const std::int64_t wx = w_index(sites_[j].node, 0);
-    ydot[wx] += a[0];
-    ydot[wx + 1] += a[1];
-  }
+  with_law([&](const auto& law) {
+    for (std::size_t j = 0; j < sites_.size(); ++j) {
+      const auto a = law.acceleration(sites_[j].v_star, site_velocity(j, y));
+      const std::int64_t wx = w_index(sites_[j].node, 0);
+      ydot[wx] += a[0];
+      ydot[wx + 1] += a[1];
+    }
+  });
 }
 
-void System::rhs_explicit(double t, std::span<const double> y, std::span<double> ydot) const {
+void System::rhs_explicit(double t, std::span<const double> y, std::span<double> ydot,
+                          int threads) const {
   std::copy(y.begin() + 3 * n_, y.begin() + 6 * n_, ydot.begin());  // u' = w
   lattice_accelerations(t, y.subspan(0, 3 * n_), y.subspan(3 * n_, 3 * n_),
-                        ydot.subspan(3 * n_, 3 * n_));
+                        ydot.subspan(3 * n_, 3 * n_), threads);
   const auto rates = quadrature_rates(t, y);
   std::copy(rates.begin(), rates.end(), ydot.begin() + quadrature_index(work_in));
 }
@@ -228,14 +231,14 @@ void System::rhs_implicit(double, std::span<const double> y, std::span<double> y
   add_contact_accelerations(y, ydot);
 }
 
-void System::rhs(double t, std::span<const double> y, std::span<double> ydot) const {
-  rhs_explicit(t, y, ydot);
+void System::rhs(double t, std::span<const double> y, std::span<double> ydot, int threads) const {
+  rhs_explicit(t, y, ydot, threads);
   add_contact_accelerations(y, ydot);
 }
 
 std::array<double, 4> System::site_block(std::size_t j, std::span<const double> y) const {
   const auto s = site_velocity(j, y);
-  return contact_jacobian(law_, contact_force_scale_, eta_c_, sites_[j].v_star, s[0], s[1]);
+  return with_law([&](const auto& law) { return law.jacobian(sites_[j].v_star, s); });
 }
 
 SparseJacobian System::jacobian_pattern(JacobianPart part) const {
@@ -320,93 +323,36 @@ SparseJacobian System::jacobian_pattern(JacobianPart part) const {
 
 void System::jacobian_values(std::span<const double> y, SparseJacobian& jac) const {
   std::copy(jac.constant_value.begin(), jac.constant_value.end(), jac.value.begin());
-  for (std::size_t j = 0; j < sites_.size(); ++j) {
-    const auto block = site_block(j, y);
-    for (int k = 0; k < 4; ++k) jac.value[jac.contact_slot[j][k]] += block[k];
-  }
+  with_law([&](const auto& law) {
+    for (std::size_t j = 0; j < sites_.size(); ++j) {
+      const auto block = law.jacobian(sites_[j].v_star, site_velocity(j, y));
+      for (int k = 0; k < 4; ++k) jac.value[jac.contact_slot[j][k]] += block[k];
+    }
+  });
 }
 
-// Site j: z + γ k(|z|) z = b with k(λ) = S φ(λ/v*)/λ + η_c ≥ 0 (S = ε f0/m),
-// so z is parallel to b and its length λ solves
-//     g(λ) = λ (1 + γ η_c) + γ S φ(λ/v*) − |b| = 0,   0 ≤ λ ≤ |b|/(1 + γ η_c),
-// where g starts negative and ends non-negative. On the velocity-weakening
-// branch (λ > v*) g need not be monotone; the bracket is then chosen on the
-// side of the predictor's speed so the root found continues the trajectory.
-// Newton runs in x = ln λ, where φ is a Gaussian and well-behaved across the
-// 10¹⁰–10¹⁵ s⁻¹ stiffness near rest that defeats Newton in λ (MODEL.md §12),
-// safeguarded by bisection of the bracket.
-//
-// ∂z/∂b: radially dλ/d|b| = 1/g'(λ), tangentially λ/|b| (z stays parallel
-// to b), so ∂z/∂b = (1/g') b̂b̂ᵀ + (λ/|b|)(I − b̂b̂ᵀ); at b = 0 it is I/(1 + γ η_c)
-// (φ(r)/r and φ'(r) vanish as r → 0).
+// The law solves it (SpeedLaw::stage for the paper's: Newton in log-speed,
+// model/friction_law.hpp).
 ContactStage System::site_stage(std::size_t j, double gamma, std::array<double, 2> b,
                                 double predictor_speed, bool derivative) const {
-  ContactStage out;
-  const double damping = 1.0 + gamma * eta_c_;
-  const double gs = gamma * contact_force_scale_;
-  const double bx = b[0], by = b[1];
-  const double b_len = std::hypot(bx, by);
-  const double v_star = sites_[j].v_star;
-  auto pure_damping = [&] {
-    out.s = {bx / damping, by / damping};
-    if (derivative) out.ds_db = {1.0 / damping, 0.0, 0.0, 1.0 / damping};
-    return out;
-  };
-  if (b_len == 0.0) return pure_damping();
-  auto g = [&](double lambda) { return lambda * damping + gs * law_.phi(lambda / v_star) - b_len; };
-  auto dg = [&](double lambda) { return damping + gs * law_.dphi(lambda / v_star) / v_star; };
-  // g(λ) and dg/dx (x = ln λ), sharing one evaluation of φ.
-  auto g_and_slope = [&](double lambda) {
-    const auto [phi, dphi] = law_.phi_and_dphi(lambda / v_star);
-    return std::array{lambda * damping + gs * phi - b_len, lambda * (damping + gs * dphi / v_star)};
-  };
-
-  double hi = b_len / damping;
-  // Below this speed φ is under 1e-300: the force is pure damping.
-  double lo = v_star * 1e-40;
-  if (hi <= lo || g(lo) >= 0.0) return pure_damping();
-  // Newton starts from the predictor's speed, which is near the root when the
-  // step is small (b itself when gamma is small); its first iteration puts the
-  // predictor at one end of the bracket, so the root found is on the
-  // predictor's side. A predictor outside the bracket says nothing: start in
-  // its middle.
-  double lambda = std::clamp(predictor_speed, lo, hi);
-  if (!(lambda > lo && lambda < hi)) lambda = std::sqrt(lo * hi);
-  bool converged = false;
-  for (int it = 0; it < 200 && !converged; ++it) {
-    ++out.iterations;
-    const auto [gl, slope] = g_and_slope(lambda);
-    if (gl == 0.0) break;
-    (gl < 0.0 ? lo : hi) = lambda;
-    double next = slope > 0.0 ? lambda * std::exp(-gl / slope) : 0.0;
-    if (!(next > lo && next < hi)) next = std::sqrt(lo * hi);  // bisect in x
-    converged = std::abs(next - lambda) <= 1e-15 * lambda || hi - lo <= 1e-15 * hi;
-    lambda = next;
-  }
-  if (!std::isfinite(lambda))
-    throw StageNotConverged("contact stage solve produced a non-finite speed");
-  const double scale = lambda / b_len;
-  out.s = {bx * scale, by * scale};
-  if (derivative) {
-    const double radial = 1.0 / dg(lambda);
-    const double ux = bx / b_len, uy = by / b_len;
-    out.ds_db = {scale + (radial - scale) * ux * ux, (radial - scale) * ux * uy,
-                 (radial - scale) * ux * uy, scale + (radial - scale) * uy * uy};
-  }
-  return out;
+  return with_law([&](const auto& law) {
+    return law.stage(sites_[j].v_star, gamma, b, predictor_speed, derivative);
+  });
 }
 
 long System::solve_implicit_stage(double gamma, std::span<const double> predictor,
                                   std::span<double> z) const {
   long iterations = 0;
-  for (std::size_t j = 0; j < sites_.size(); ++j) {
-    const std::int64_t wx = w_index(sites_[j].node, 0);
-    const ContactStage c = site_stage(j, gamma, {z[wx], z[wx + 1]},
-                                      std::hypot(predictor[wx], predictor[wx + 1]), false);
-    iterations += c.iterations;
-    z[wx] = c.s[0];
-    z[wx + 1] = c.s[1];
-  }
+  with_law([&](const auto& law) {
+    for (std::size_t j = 0; j < sites_.size(); ++j) {
+      const std::int64_t wx = w_index(sites_[j].node, 0);
+      const ContactStage c = law.stage(sites_[j].v_star, gamma, {z[wx], z[wx + 1]},
+                                       std::hypot(predictor[wx], predictor[wx + 1]), false);
+      iterations += c.iterations;
+      z[wx] = c.s[0];
+      z[wx + 1] = c.s[1];
+    }
+  });
   return iterations;
 }
 
@@ -421,13 +367,13 @@ double System::site_weakening_rate(std::size_t j, std::array<double, 2> s) const
   const double speed = std::hypot(s[0], s[1]);
   if (!(speed > 0.0)) return 0.0;  // at rest the force rises with speed
   // The Jacobian block along ŝ: ∂a/∂|s|, positive past the peak.
-  const auto b = contact_jacobian(law_, contact_force_scale_, eta_c_, sites_[j].v_star, s[0], s[1]);
+  const auto b = with_law([&](const auto& law) { return law.jacobian(sites_[j].v_star, s); });
   const double nx = s[0] / speed, ny = s[1] / speed;
   return std::max(0.0, nx * (b[0] * nx + b[1] * ny) + ny * (b[2] * nx + b[3] * ny));
 }
 
 double System::site_damping_rate(std::size_t j, std::array<double, 2> s) const {
-  const auto b = contact_jacobian(law_, contact_force_scale_, eta_c_, sites_[j].v_star, s[0], s[1]);
+  const auto b = with_law([&](const auto& law) { return law.jacobian(sites_[j].v_star, s); });
   const double speed = std::hypot(s[0], s[1]);
   if (!(speed > 0.0)) return -std::max(b[0], b[3]);  // isotropic at rest
   const double nx = s[0] / speed, ny = s[1] / speed;
@@ -474,11 +420,13 @@ double System::lattice_dissipation(std::span<const double> y) const {
 // ε f0 φ |s| + m η_c |s|² = −m a·s for each contact.
 double System::contact_dissipation(std::span<const double> y) const {
   double sum = 0.0;
-  for (std::size_t j = 0; j < sites_.size(); ++j) {
-    const auto s = site_velocity(j, y);
-    const auto a = site_acceleration(j, s);
-    sum -= a[0] * s[0] + a[1] * s[1];
-  }
+  with_law([&](const auto& law) {
+    for (std::size_t j = 0; j < sites_.size(); ++j) {
+      const auto s = site_velocity(j, y);
+      const auto a = law.acceleration(sites_[j].v_star, s);
+      sum -= a[0] * s[0] + a[1] * s[1];
+    }
+  });
   return mass_ * sum;
 }
 
@@ -583,21 +531,29 @@ double System::contact_load(std::size_t i, std::span<const double> acc) const {
 }
 
 std::array<double, 2> System::site_acceleration(std::size_t j, std::array<double, 2> s) const {
-  return stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_, sites_[j].v_star, s[0],
-                                         s[1]);
+  return with_law([&](const auto& law) { return law.acceleration(sites_[j].v_star, s); });
+}
+
+double System::speed_scale(std::size_t i) const {
+  return with_law([&](const auto& law) { return law.speed_scale(contacts_[i]); });
+}
+
+double System::stick_slip_root(std::size_t i, double speed) const {
+  return with_law([&](const auto& law) { return law.stick_slip_root(speed, speed_scale(i)); });
 }
 
 void System::stick_slip_roots(std::span<const double> y, std::span<const int> watched,
                               std::span<double> g) const {
   for (std::size_t k = 0; k < watched.size(); ++k) {
     const auto i = static_cast<std::size_t>(watched[k]);
-    g[k] = contact_speed(i, y) - slip_threshold_ * contacts_[i].v_star;
+    g[k] = stick_slip_root(i, contact_speed(i, y));
   }
 }
 
 bool System::slipping(std::size_t i, std::span<const double> y) const {
   const auto s = contact_velocity(i, y);
-  return std::hypot(s[0], s[1]) > slip_threshold_ * contacts_[i].v_star;
+  return with_law(
+      [&](const auto& law) { return law.slips(std::hypot(s[0], s[1]), speed_scale(i)); });
 }
 
 double System::contact_force(std::size_t i, std::span<const double> y) const {
@@ -613,7 +569,9 @@ double System::contact_force(std::size_t i, std::span<const double> y) const {
 
 double System::steady_sliding_mu() const {
   double mean_phi = 0.0;
-  for (const auto& c : contacts_) mean_phi += law_.phi(v_ / c.v_star);
+  with_law([&](const auto& law) {
+    for (const auto& c : contacts_) mean_phi += law.steady_phi(v_, law.speed_scale(c));
+  });
   mean_phi /= static_cast<double>(contacts_.size());
   // m η_c v / (ε P0 a²) = η_c v / (ε f0/m) × τ_f/P0.
   return mu_prefactor_ * (mean_phi + eta_c_ * v_ / contact_force_scale_);

@@ -217,7 +217,12 @@ struct CaseRun::State {
   double impulse_at_average = std::nan("");
   std::vector<RunSegment> segments;  // every attempt of the run, this one last
   Progress progress;
-  ThreadGovernor threads{system.threads()};
+  // The run's threads ([solver] threads, resolved as resolve_solver does),
+  // handed to the integrator in its options; the governor lowers what its
+  // loops use while they do not get their cores.
+  std::shared_ptr<ThreadBudget> budget =
+      std::make_shared<ThreadBudget>(resolved_threads(c.solver, system.num_nodes()));
+  ThreadGovernor threads{budget->threads()};
 };
 
 namespace {
@@ -369,6 +374,7 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
 
   IntegratorOptions integrator_options;
   integrator_options.watched_contacts = watched;
+  integrator_options.threads = budget;
   // Between output times too, every few hundred steps (the method's poll
   // interval, case/methods.hpp): flush the outputs now and then, and stop at
   // once when a stop is requested.
@@ -450,7 +456,7 @@ void CaseRun::State::record_events(double t) {
 }
 
 void CaseRun::State::govern_threads() {
-  system.set_loop_threads(threads.update(seconds_since(wall_start), process_wait_seconds));
+  budget->set_now(threads.update(seconds_since(wall_start), process_wait_seconds));
 }
 
 double CaseRun::State::advance_to(double target) {

@@ -33,7 +33,8 @@ MethodChoice choose_method(const System& system, const SolverParams& solver);
 // once, here, and handed down, so no part of a run applies a rule again.
 struct ResolvedSolver {
   SolverParams given;     // the case's own: what summary.json says was given
-  SolverParams params;    // a method, never "auto"; atol_* by the rule where not given
+  SolverParams params;    // a method, never "auto"; atol_* by the rule where not given;
+                          // threads resolved (resolved_threads): the run's budget
   std::string chosen_by;  // why "auto" chose params.method; empty if the case named it
 };
 ResolvedSolver resolve_solver(const System& system, const SolverParams& given);

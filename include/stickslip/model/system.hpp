@@ -47,29 +47,15 @@ struct SparseJacobian {
 // reads: O(N_c) entries, where the whole matrix holds ~200 a node).
 enum class JacobianPart { contacts, full, site_rows };
 
-// One contact's implicit stage equation s − γ a_c(s) = b solved exactly
-// (a_c: its in-plane acceleration, MODEL.md §6), with ∂s/∂b when asked for.
-struct ContactStage {
-  std::array<double, 2> s{};
-  std::array<double, 4> ds_db{};  // row-major; filled only when asked for
-  long iterations = 0;            // scalar Newton iterations
-};
-
 // One bottom node carrying the contact law of MODEL.md §6. A contact's R×R
-// patch (§14) is R² sites with the contact's v*; for R = 1 site j is contact j.
+// patch (§14) is R² sites with the contact's speed scale (the law's
+// speed_scale: v*); for R = 1 site j is contact j.
 // The force law, its Jacobian and the implicit stage solves act on sites; stick,
 // slip, events and traces on contacts (their sites' mean velocity).
 struct FrictionSite {
   int ix = 0, iy = 0;
   std::int64_t node = 0;
-  double v_star = 0.0;  // [m/s]
-};
-
-// A stage solve that did not converge (a step too large for the contacts'
-// stage equations): the integrator may retry with a smaller step. Any other
-// exception from a stage solve is a bug and stops the run with its message.
-struct StageNotConverged : std::runtime_error {
-  using std::runtime_error::runtime_error;
+  double v_star = 0.0;  // its contact's speed scale [m/s]
 };
 
 struct EnergyTerms {
@@ -89,16 +75,6 @@ class System {
   int nx() const { return nx_; }
   int ny() const { return ny_; }
   int nz() const { return nz_; }
-  // OpenMP threads for the loops of a run ([solver] threads, resolved).
-  int threads() const { return threads_; }
-  // The threads its loops use now: threads(), unless the run found that they
-  // do not get their cores (ThreadGovernor, run/thread_governor.hpp) and
-  // lowered it for a while. The machine's load, not the physics: results do
-  // not depend on it (parallel_for), so it may change between any two steps.
-  int loop_threads() const { return loop_threads_; }
-  void set_loop_threads(int threads) const {
-    loop_threads_ = threads < 1 ? 1 : threads > threads_ ? threads_ : threads;
-  }
   std::int64_t num_nodes() const { return n_; }
   std::int64_t size() const { return 6 * n_ + kQuadratures; }
   std::int64_t node(int ix, int iy, int iz) const {
@@ -124,9 +100,12 @@ class System {
   void initial_state(InitialState initial, std::span<double> y) const;
 
   // f = f_explicit + f_implicit. The implicit part is the contact forces (on
-  // the contacts' in-plane velocities); everything else is explicit.
-  void rhs(double t, std::span<const double> y, std::span<double> ydot) const;
-  void rhs_explicit(double t, std::span<const double> y, std::span<double> ydot) const;
+  // the contacts' in-plane velocities); everything else is explicit. The
+  // lattice's forces go to `threads` OpenMP threads (the run's budget,
+  // ThreadBudget::now(), model/parallel_for.hpp); results do not depend on it.
+  void rhs(double t, std::span<const double> y, std::span<double> ydot, int threads = 1) const;
+  void rhs_explicit(double t, std::span<const double> y, std::span<double> ydot,
+                    int threads = 1) const;
   void rhs_implicit(double t, std::span<const double> y, std::span<double> ydot) const;
 
   // Solves the implicit stage equation of IMEX methods, z − γ f_implicit(z) = b,
@@ -142,11 +121,11 @@ class System {
   long solve_implicit_stage(double gamma, std::span<const double> predictor,
                             std::span<double> z) const;
 
-  // Site j's stage equation s − γ a_c(s) = b, solved exactly as
-  // solve_implicit_stage does for every site; `predictor_speed` picks among
-  // several roots. ∂s/∂b is bounded (‖∂s/∂b‖ ≤ 1 where the force rises with
-  // speed) even where a_c's own derivative reaches 1e15 s⁻¹, which is what
-  // makes it the variable a coupled stage solve can run Newton on.
+  // Site j's stage equation s − γ a_c(s) = b, solved exactly by the law (its
+  // `stage`, model/friction_law.hpp) as solve_implicit_stage does for every
+  // site; `predictor_speed` picks among several roots. ∂s/∂b is bounded (‖∂s/∂b‖ ≤ 1 where the
+  // force rises with speed) even where a_c's own derivative reaches 1e15 s⁻¹, which is what makes
+  // it the variable a coupled stage solve can run Newton on.
   ContactStage site_stage(std::size_t j, double gamma, std::array<double, 2> b,
                           double predictor_speed, bool derivative) const;
 
@@ -155,9 +134,9 @@ class System {
   // displacements u and velocities w (3N values each), into acc (3N). Affine
   // in (u, w); without the contacts. Solvers that exploit the lattice's
   // structure read its operator from here (by probing), never from a copy of
-  // the stencil.
+  // the stencil. On `threads` OpenMP threads, with the same result for any.
   void lattice_accelerations(double t, std::span<const double> u, std::span<const double> w,
-                             std::span<double> acc) const;
+                             std::span<double> acc, int threads = 1) const;
 
   // The quadratures' rates at (t, y), in Quadrature's order: P_in, D and F_f
   // (§7, §8); they depend on u and w only. f's last three rows.
@@ -200,12 +179,20 @@ class System {
   // a_c of §6 (force per mass) of site j at in-plane velocity s.
   std::array<double, 2> site_acceleration(std::size_t j, std::array<double, 2> s) const;
 
-  // Stick/slip root functions (MODEL.md §9): g_k = |s_c| − κ v*_c for each
-  // watched contact c = watched[k], s_c its velocity; positive while it slips.
+  // Stick/slip root functions (MODEL.md §9), the law's: g_k = |s_c| − κ v*_c
+  // for each watched contact c = watched[k], s_c its velocity; positive while
+  // it slips.
   void stick_slip_roots(std::span<const double> y, std::span<const int> watched,
                         std::span<double> g) const;
+  // The same root for contact i moving at `speed` (|s_c|, however the caller
+  // has it: the multirate stepper's from its sub-steps) [m/s].
+  double stick_slip_root(std::size_t i, double speed) const;
   bool slipping(std::size_t i, std::span<const double> y) const;
-  double slip_threshold() const { return slip_threshold_; }  // κ of §9
+  // κ of §9. The paper's law's parameter: stick_slip_root asks the law.
+  double slip_threshold() const { return slip_threshold_; }
+  // Contact i's speed scale, the law's (v* for the paper's): the speed on
+  // which its force changes [m/s].
+  double speed_scale(std::size_t i) const;
   // The fastest growth rate of a site on the weakening branch, λ = −d|a_c|/d|s|
   // where the contact force falls with speed (past v*), 0 if none is [1/s].
   // A step with h λ ≫ 1 lets an L-stable method damp a slip's growth, and the
@@ -253,6 +240,12 @@ class System {
   double contact_displacement() const { return contact_force_scale_ / k1_over_m_; }
 
  private:
+  // f(law) with the case's law as its own type: a loop over sites runs
+  // inside f, so each site calls the law directly.
+  template <class F>
+  decltype(auto) with_law(F&& f) const {
+    return std::visit(std::forward<F>(f), law_);
+  }
   void add_contact_accelerations(std::span<const double> y, std::span<double> ydot) const;
   std::array<double, 2> site_velocity(std::size_t j, std::span<const double> y) const {
     const std::int64_t wx = w_index(sites_[j].node, 0);
@@ -298,15 +291,13 @@ class System {
   std::int64_t n_;
   double a_, mass_, g1_, g2_;
   double k1_over_m_, k2_over_m_, kd_over_m_;  // [1/s²]
-  int threads_;                 // OpenMP threads of a run ([solver] threads, resolved)
-  mutable int loop_threads_;    // of those, what the loops use now (loop_threads)
-  double eta_, eta_c_;          // [1/s]
-  double v_;                    // drive velocity [m/s]
-  double contact_force_scale_;  // ε f0 / m [m/s²]
+  double eta_, eta_c_;                        // [1/s]
+  double v_;                                  // drive velocity [m/s]
+  double contact_force_scale_;                // ε f0 / m [m/s²]
   double normal_force_;
   double mu_prefactor_;    // τ_f / P0
   double slip_threshold_;  // κ
-  FrictionLaw law_;
+  ContactLaws law_;
   std::vector<Contact> contacts_;
   int patch_;                         // R
   std::vector<FrictionSite> sites_;   // contact i's are [i R², (i + 1) R²)
