@@ -396,7 +396,7 @@ TEST_CASE(
     const std::vector<double> weights(b.size(), 1e6);
     std::vector<double> free = b, z = b;
     unlimited.solve(1e-4, gamma, b, weights, free);
-    const double gamma_lambda = gamma * s.weakening_rate(free);
+    const double gamma_lambda = gamma * s.contact_set().weakening_rate(free);
     INFO("gamma " << gamma << ", gamma lambda " << gamma_lambda);
     if (gamma_lambda > kLimit) {
       CHECK_THROWS_AS(limited.solve(1e-4, gamma, b, weights, z), StageNotConverged);

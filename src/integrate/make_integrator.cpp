@@ -19,7 +19,7 @@ MethodChoice choose_method(const System& system, const SolverParams& solver) {
             "method (docs/PERFORMANCE.md)"};
   std::size_t weak = 0;  // contacts that stick-slip at the drive speed: their law's
   for (std::size_t i = 0; i < system.contacts().size(); ++i)  // speed scale is below it
-    if (system.speed_scale(i) < system.drive_velocity()) ++weak;
+    if (system.contact_set().speed_scale(i) < system.drive_velocity()) ++weak;
   // bdf rather than dirk: on the 30 points of Fig. 7 at v = 3e-4 both agree
   // to 2.4e-6 in μ, bdf took 1-7 s on each, dirk up to 54 s and stalled on
   // one (its contacts' Newton failing again and again in the creep).

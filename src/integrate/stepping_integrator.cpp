@@ -87,7 +87,9 @@ void SteppingIntegrator::solve_per_contact() {
   stage_solver_ = make_exact_stage_solver(
       ctx_, calls_.stage_package,
       [&system](double, double gamma, std::span<const double> predictor, std::span<const double>,
-                std::span<double> z) { return system.solve_implicit_stage(gamma, predictor, z); },
+                std::span<double> z) {
+        return system.contact_set().solve_implicit_stage(gamma, predictor, z);
+      },
       stage_stats_, pending_);
   check_call(calls_.set_nonlinear_solver(mem(), stage_solver_.get()), "SetNonlinearSolver");
 }
@@ -299,7 +301,8 @@ void SteppingIntegrator::record_step() {
   if (t <= t_last_step_) return;
   const double h = t - t_last_step_;
   // y_ holds the step's end (ONE_STEP mode).
-  const StepRecord r{t, h, local_error_norm(), h * system_.weakening_rate(as_span(y_.get()))};
+  const StepRecord r{t, h, local_error_norm(),
+                     h * system_.contact_set().weakening_rate(as_span(y_.get()))};
   t_last_step_ = t;
   options_.on_step(r);
 }

@@ -84,46 +84,37 @@ void System::driven(double t, const double* u, const double* w, Driven&& node_ti
   });
 }
 
+// Every member up to contact_set_ in the member initializers, in their
+// order: the contacts' law takes the force scale and η_c derived here.
 System::System(const Case& c, std::vector<Contact> contacts)
     : nx_(c.lattice.nx),
       ny_(c.lattice.ny),
       nz_(c.lattice.nz),
       n_(std::int64_t{nx_} * ny_ * nz_),
-      contacts_(std::move(contacts)),
-      patch_(c.interface.patch) {
-  const auto& mat = c.material;
-  a_ = c.lattice.spacing;
-  mass_ = mat.density * a_ * a_ * a_;
-  // §2: G1 = c_t², G2 from the paper's Eq. (1) or the Navier equation.
-  g1_ = mat.youngs_modulus / (2.0 * (1.0 + mat.poisson_ratio) * mat.density);
-  g2_ = mat.grad_div == GradDiv::paper ? (1.0 + 2.0 * mat.poisson_ratio) * g1_
-                                       : g1_ / (1.0 - 2.0 * mat.poisson_ratio);
-  // k1/m = G1/a², k2/m = G2/a², k_d = k1.
-  k1_over_m_ = g1_ / (a_ * a_);
-  k2_over_m_ = g2_ / (a_ * a_);
-  kd_over_m_ = k1_over_m_;
-  const double omega0 = longitudinal_speed() / a_;
-  eta_ = c.damping.bulk * omega0;
-  eta_c_ = c.damping.contact * omega0;
-  v_ = c.drive.velocity;
-  const auto& iface = c.interface;
-  contact_force_scale_ = iface.epsilon * a_ * a_ * iface.shear_stress / mass_;
-  law_ = make_contact_law(iface, contact_force_scale_, eta_c_);
-  if (patch_ < 1 || patch_ > std::min(nx_, ny_))
-    throw std::invalid_argument("patch size outside [1, min(nx, ny)]");
-  if (first_overlap(contacts_, patch_, nx_, ny_))
-    throw std::invalid_argument("contact patches overlap");
-  for (const auto& ct : contacts_) {
-    if (ct.ix < 0 || ct.ix >= nx_ || ct.iy < 0 || ct.iy >= ny_ || !(ct.v_star > 0.0))
-      throw std::invalid_argument("contact outside the bottom layer or with v* <= 0");
-    const double scale = with_law([&](const auto& law) { return law.speed_scale(ct); });
-    for (const auto& [x, y] : patch_sites(ct.ix, ct.iy, patch_, nx_, ny_))
-      sites_.push_back({x, y, node(x, y, 0), scale});
-  }
+      a_(c.lattice.spacing),
+      mass_(c.material.density * a_ * a_ * a_),
+      // §2: G1 = c_t², G2 from the paper's Eq. (1) or the Navier equation.
+      g1_(c.material.youngs_modulus /
+          (2.0 * (1.0 + c.material.poisson_ratio) * c.material.density)),
+      g2_(c.material.grad_div == GradDiv::paper ? (1.0 + 2.0 * c.material.poisson_ratio) * g1_
+                                                : g1_ / (1.0 - 2.0 * c.material.poisson_ratio)),
+      // k1/m = G1/a², k2/m = G2/a², k_d = k1.
+      k1_over_m_(g1_ / (a_ * a_)),
+      k2_over_m_(g2_ / (a_ * a_)),
+      kd_over_m_(k1_over_m_),
+      // η = η̂ ω0, η_c = η̂_c ω0 with ω0 = c_l / a.
+      eta_(c.damping.bulk * (longitudinal_speed() / a_)),
+      eta_c_(c.damping.contact * (longitudinal_speed() / a_)),
+      v_(c.drive.velocity),
+      contact_force_scale_(c.interface.epsilon * a_ * a_ * c.interface.shear_stress / mass_),
+      normal_force_(0.0),
+      mu_prefactor_(c.interface.shear_stress / c.interface.max_pressure),
+      contact_set_(c.interface, std::move(contacts), nx_, ny_, n_, mass_, contact_force_scale_,
+                   eta_c_) {
   // §7, §14: F_N = ε θ P0 Nx Ny a² with θ the covered fraction, sites/(Nx Ny).
-  normal_force_ = iface.epsilon * static_cast<double>(sites_.size()) * iface.max_pressure * a_ * a_;
-  mu_prefactor_ = iface.shear_stress / iface.max_pressure;
-  slip_threshold_ = iface.slip_threshold;
+  const auto& iface = c.interface;
+  normal_force_ = iface.epsilon * static_cast<double>(contact_set_.sites().size()) *
+                  iface.max_pressure * a_ * a_;
 
   x_next_.resize(nx_);
   y_next_.resize(ny_);
@@ -145,7 +136,7 @@ std::string System::describe_component(std::int64_t i) const {
 }
 
 double System::coverage() const {
-  return static_cast<double>(sites_.size()) / (nx_ * ny_);
+  return static_cast<double>(contact_set_.sites().size()) / (nx_ * ny_);
 }
 
 void System::initial_state(InitialState initial, std::span<double> y) const {
@@ -201,17 +192,6 @@ void System::lattice_accelerations(double t, std::span<const double> u_in,
   });
 }
 
-void System::add_contact_accelerations(std::span<const double> y, std::span<double> ydot) const {
-  with_law([&](const auto& law) {
-    for (std::size_t j = 0; j < sites_.size(); ++j) {
-      const auto a = law.acceleration(sites_[j].v_star, site_velocity(j, y));
-      const std::int64_t wx = w_index(sites_[j].node, 0);
-      ydot[wx] += a[0];
-      ydot[wx + 1] += a[1];
-    }
-  });
-}
-
 void System::rhs_explicit(double t, std::span<const double> y, std::span<double> ydot,
                           int threads) const {
   std::copy(y.begin() + 3 * n_, y.begin() + 6 * n_, ydot.begin());  // u' = w
@@ -228,17 +208,12 @@ std::array<double, System::kQuadratures> System::quadrature_rates(double t,
 
 void System::rhs_implicit(double, std::span<const double> y, std::span<double> ydot) const {
   std::fill(ydot.begin(), ydot.end(), 0.0);
-  add_contact_accelerations(y, ydot);
+  contact_set_.add_accelerations(y, ydot);
 }
 
 void System::rhs(double t, std::span<const double> y, std::span<double> ydot, int threads) const {
   rhs_explicit(t, y, ydot, threads);
-  add_contact_accelerations(y, ydot);
-}
-
-std::array<double, 4> System::site_block(std::size_t j, std::span<const double> y) const {
-  const auto s = site_velocity(j, y);
-  return with_law([&](const auto& law) { return law.jacobian(sites_[j].v_star, s); });
+  contact_set_.add_accelerations(y, ydot);
 }
 
 SparseJacobian System::jacobian_pattern(JacobianPart part) const {
@@ -250,14 +225,14 @@ SparseJacobian System::jacobian_pattern(JacobianPart part) const {
   std::vector<char> kept_row;
   if (part == JacobianPart::site_rows) {
     kept_row.assign(static_cast<std::size_t>(size), 0);
-    for (const auto& site : sites_)
+    for (const auto& site : contact_set_.sites())
       for (int r = 0; r < 2; ++r) kept_row[static_cast<std::size_t>(w_index(site.node, r))] = 1;
   }
   auto add = [&](std::int64_t r, std::int64_t c, double v) {
     if (kept_row.empty() || kept_row[static_cast<std::size_t>(r)]) t.emplace_back(r, c, v);
   };
   for (std::int64_t r = 0; r < size; ++r) add(r, r, 0.0);
-  for (const auto& site : sites_) {
+  for (const auto& site : contact_set_.sites()) {
     const std::int64_t wx = w_index(site.node, 0);
     for (int r = 0; r < 2; ++r)
       for (int c = 0; c < 2; ++c) add(wx + r, wx + c, 0.0);
@@ -313,7 +288,7 @@ SparseJacobian System::jacobian_pattern(JacobianPart part) const {
     const auto last = jac.column.begin() + jac.row_start[r + 1];
     return static_cast<std::int64_t>(std::lower_bound(first, last, c) - jac.column.begin());
   };
-  for (const auto& site : sites_) {
+  for (const auto& site : contact_set_.sites()) {
     const std::int64_t wx = w_index(site.node, 0);
     jac.contact_slot.push_back(
         {slot(wx, wx), slot(wx, wx + 1), slot(wx + 1, wx), slot(wx + 1, wx + 1)});
@@ -323,63 +298,7 @@ SparseJacobian System::jacobian_pattern(JacobianPart part) const {
 
 void System::jacobian_values(std::span<const double> y, SparseJacobian& jac) const {
   std::copy(jac.constant_value.begin(), jac.constant_value.end(), jac.value.begin());
-  with_law([&](const auto& law) {
-    for (std::size_t j = 0; j < sites_.size(); ++j) {
-      const auto block = law.jacobian(sites_[j].v_star, site_velocity(j, y));
-      for (int k = 0; k < 4; ++k) jac.value[jac.contact_slot[j][k]] += block[k];
-    }
-  });
-}
-
-// The law solves it (SpeedLaw::stage for the paper's: Newton in log-speed,
-// model/friction_law.hpp).
-ContactStage System::site_stage(std::size_t j, double gamma, std::array<double, 2> b,
-                                double predictor_speed, bool derivative) const {
-  return with_law([&](const auto& law) {
-    return law.stage(sites_[j].v_star, gamma, b, predictor_speed, derivative);
-  });
-}
-
-long System::solve_implicit_stage(double gamma, std::span<const double> predictor,
-                                  std::span<double> z) const {
-  long iterations = 0;
-  with_law([&](const auto& law) {
-    for (std::size_t j = 0; j < sites_.size(); ++j) {
-      const std::int64_t wx = w_index(sites_[j].node, 0);
-      const ContactStage c = law.stage(sites_[j].v_star, gamma, {z[wx], z[wx + 1]},
-                                       std::hypot(predictor[wx], predictor[wx + 1]), false);
-      iterations += c.iterations;
-      z[wx] = c.s[0];
-      z[wx + 1] = c.s[1];
-    }
-  });
-  return iterations;
-}
-
-double System::weakening_rate(std::span<const double> y) const {
-  double rate = 0.0;
-  for (std::size_t j = 0; j < sites_.size(); ++j)
-    rate = std::max(rate, site_weakening_rate(j, site_velocity(j, y)));
-  return rate;
-}
-
-double System::site_weakening_rate(std::size_t j, std::array<double, 2> s) const {
-  const double speed = std::hypot(s[0], s[1]);
-  if (!(speed > 0.0)) return 0.0;  // at rest the force rises with speed
-  // The Jacobian block along ŝ: ∂a/∂|s|, positive past the peak.
-  const auto b = with_law([&](const auto& law) { return law.jacobian(sites_[j].v_star, s); });
-  const double nx = s[0] / speed, ny = s[1] / speed;
-  return std::max(0.0, nx * (b[0] * nx + b[1] * ny) + ny * (b[2] * nx + b[3] * ny));
-}
-
-double System::site_damping_rate(std::size_t j, std::array<double, 2> s) const {
-  const auto b = with_law([&](const auto& law) { return law.jacobian(sites_[j].v_star, s); });
-  const double speed = std::hypot(s[0], s[1]);
-  if (!(speed > 0.0)) return -std::max(b[0], b[3]);  // isotropic at rest
-  const double nx = s[0] / speed, ny = s[1] / speed;
-  const double radial = nx * (b[0] * nx + b[1] * ny) + ny * (b[2] * nx + b[3] * ny);
-  const double tangential = ny * (b[0] * ny - b[1] * nx) - nx * (b[2] * ny - b[3] * nx);
-  return -std::max(radial, tangential);
+  contact_set_.add_jacobian_blocks(y, jac.contact_slot, jac.value);
 }
 
 double System::drive_stretch(double t, std::span<const double> y) const {
@@ -417,21 +336,8 @@ double System::lattice_dissipation(std::span<const double> y) const {
   return mass_ * eta_ * (face_sum + drive);
 }
 
-// ε f0 φ |s| + m η_c |s|² = −m a·s for each contact.
-double System::contact_dissipation(std::span<const double> y) const {
-  double sum = 0.0;
-  with_law([&](const auto& law) {
-    for (std::size_t j = 0; j < sites_.size(); ++j) {
-      const auto s = site_velocity(j, y);
-      const auto a = law.acceleration(sites_[j].v_star, s);
-      sum -= a[0] * s[0] + a[1] * s[1];
-    }
-  });
-  return mass_ * sum;
-}
-
 double System::dissipation(std::span<const double> y) const {
-  return lattice_dissipation(y) + contact_dissipation(y);
+  return lattice_dissipation(y) + contact_set_.dissipation(y);
 }
 
 EnergyTerms System::energy(double t, std::span<const double> y) const {
@@ -478,101 +384,14 @@ double System::block_velocity(std::span<const double> y) const {
   return sum / static_cast<double>(n_);
 }
 
-double System::total_contact_force(std::span<const double> y) const {
-  double sum = 0.0;
-  for (std::size_t j = 0; j < sites_.size(); ++j)
-    sum += site_acceleration(j, site_velocity(j, y))[0];
-  return mass_ * sum;
-}
-
 double System::contact_impulse(double t, std::span<const double> y) const {
   double momentum = 0.0;
   for (std::int64_t n = 0; n < n_; ++n) momentum += y[w_index(n, 0)];
   return mass_ * (momentum - eta_ * drive_stretch(t, y)) - y[quadrature_index(friction_impulse)];
 }
 
-std::array<double, 2> System::contact_velocity(std::size_t i, std::span<const double> y) const {
-  const auto sites = sites_of(i);
-  if (sites.size() == 1) return site_velocity(i, y);  // R = 1: no rounding by the mean
-  std::array<double, 2> mean{};
-  for (const auto& site : sites) {
-    const std::int64_t wx = w_index(site.node, 0);
-    mean[0] += y[wx];
-    mean[1] += y[wx + 1];
-  }
-  const double n = static_cast<double>(sites.size());
-  return {mean[0] / n, mean[1] / n};
-}
-
-double System::contact_speed(std::size_t i, std::span<const double> y) const {
-  const auto s = contact_velocity(i, y);
-  return std::hypot(s[0], s[1]);
-}
-
-std::array<double, 2> System::contact_displacement(std::size_t i, std::span<const double> y) const {
-  const auto sites = sites_of(i);
-  std::array<double, 2> mean{};
-  for (const auto& site : sites) {
-    const std::int64_t ux = u_index(site.node, 0);
-    mean[0] += y[ux];
-    mean[1] += y[ux + 1];
-  }
-  const double n = static_cast<double>(sites.size());
-  return {mean[0] / n, mean[1] / n};
-}
-
-double System::contact_load(std::size_t i, std::span<const double> acc) const {
-  std::array<double, 2> sum{};
-  for (const auto& site : sites_of(i)) {
-    sum[0] += acc[static_cast<std::size_t>(3 * site.node)];
-    sum[1] += acc[static_cast<std::size_t>(3 * site.node + 1)];
-  }
-  return mass_ * std::hypot(sum[0], sum[1]);
-}
-
-std::array<double, 2> System::site_acceleration(std::size_t j, std::array<double, 2> s) const {
-  return with_law([&](const auto& law) { return law.acceleration(sites_[j].v_star, s); });
-}
-
-double System::speed_scale(std::size_t i) const {
-  return with_law([&](const auto& law) { return law.speed_scale(contacts_[i]); });
-}
-
-double System::stick_slip_root(std::size_t i, double speed) const {
-  return with_law([&](const auto& law) { return law.stick_slip_root(speed, speed_scale(i)); });
-}
-
-void System::stick_slip_roots(std::span<const double> y, std::span<const int> watched,
-                              std::span<double> g) const {
-  for (std::size_t k = 0; k < watched.size(); ++k) {
-    const auto i = static_cast<std::size_t>(watched[k]);
-    g[k] = stick_slip_root(i, contact_speed(i, y));
-  }
-}
-
-bool System::slipping(std::size_t i, std::span<const double> y) const {
-  const auto s = contact_velocity(i, y);
-  return with_law(
-      [&](const auto& law) { return law.slips(std::hypot(s[0], s[1]), speed_scale(i)); });
-}
-
-double System::contact_force(std::size_t i, std::span<const double> y) const {
-  std::array<double, 2> sum{};
-  const std::size_t first = i * sites_of(i).size();
-  for (std::size_t j = first; j < first + sites_of(i).size(); ++j) {
-    const auto a = site_acceleration(j, site_velocity(j, y));
-    sum[0] += a[0];
-    sum[1] += a[1];
-  }
-  return mass_ * std::hypot(sum[0], sum[1]);
-}
-
 double System::steady_sliding_mu() const {
-  double mean_phi = 0.0;
-  with_law([&](const auto& law) {
-    for (const auto& c : contacts_) mean_phi += law.steady_phi(v_, law.speed_scale(c));
-  });
-  mean_phi /= static_cast<double>(contacts_.size());
+  const double mean_phi = contact_set_.mean_steady_phi(v_);
   // m η_c v / (ε P0 a²) = η_c v / (ε f0/m) × τ_f/P0.
   return mu_prefactor_ * (mean_phi + eta_c_ * v_ / contact_force_scale_);
 }

@@ -448,9 +448,9 @@ void CaseRun::State::record_events(double t) {
   for (std::size_t k = 0; k < roots.size(); ++k) {
     if (roots[k] == 0) continue;
     const auto id = static_cast<std::size_t>(watched[k]);
-    const auto v = system.contact_velocity(id, y);
+    const auto v = system.contact_set().contact_velocity(id, y);
     const Event e{t, watched[k], roots[k] > 0 ? EventKind::slip : EventKind::stick,
-                  std::hypot(v[0], v[1]), system.contact_force(id, y)};
+                  std::hypot(v[0], v[1]), system.contact_set().contact_force(id, y)};
     for (const auto& r : recorders) r->event(e, y);
   }
 }
