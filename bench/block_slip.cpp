@@ -85,7 +85,7 @@ int main(int argc, char** argv) {
   std::vector<int> slips(nc, 0);
   auto sample_speeds = [&](const std::vector<double>& state) {
     for (std::size_t i = 0; i < nc; ++i) {
-      const auto s = system.contact_velocity(i, state);
+      const auto s = system.contact_set().contact_velocity(i, state);
       peak[i] = std::max(peak[i], std::hypot(s[0], s[1]));
     }
   };
@@ -100,7 +100,8 @@ int main(int argc, char** argv) {
     t = integrator->advance(t_out, y);
     sample_speeds(y);
     if (trace_contact >= 0) {
-      const auto v = system.contact_velocity(static_cast<std::size_t>(trace_contact), y);
+      const auto v =
+          system.contact_set().contact_velocity(static_cast<std::size_t>(trace_contact), y);
       trace.push_back({t, v[0], v[1]});
     }
     const auto roots = integrator->roots();
@@ -127,7 +128,7 @@ int main(int argc, char** argv) {
   out["peak_speed"] = peak;
   std::vector<double> end_speed(nc);
   for (std::size_t i = 0; i < nc; ++i) {
-    const auto v = system.contact_velocity(i, y);
+    const auto v = system.contact_set().contact_velocity(i, y);
     end_speed[i] = std::hypot(v[0], v[1]);
   }
   out["end_speed"] = end_speed;

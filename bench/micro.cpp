@@ -94,7 +94,7 @@ void BM_stage_solve(benchmark::State& state) {
   std::vector<double> z = f.y;
   for (auto _ : state) {
     std::copy(f.y.begin(), f.y.end(), z.begin());  // b, the state itself as a stand-in
-    benchmark::DoNotOptimize(f.system->solve_implicit_stage(1e-8, f.y, z));
+    benchmark::DoNotOptimize(f.system->contact_set().solve_implicit_stage(1e-8, f.y, z));
   }
   report_nodes(state, *f.system);
 }
@@ -113,11 +113,10 @@ void BM_jacobian(benchmark::State& state) {
 // CPU time counts every thread).
 void BM_rhs_explicit_threads(benchmark::State& state) {
   auto& f = fixture(static_cast<int>(state.range(0)));
-  Case c = f.c;
-  c.solver.threads = static_cast<int>(state.range(1));
-  const System system(c, f.system->contacts());
+  const System& system = *f.system;
+  const int threads = static_cast<int>(state.range(1));
   for (auto _ : state) {
-    system.rhs_explicit(0.0, f.y, f.ydot);
+    system.rhs_explicit(0.0, f.y, f.ydot, threads);
     benchmark::DoNotOptimize(f.ydot.data());
   }
   report_nodes(state, system);
@@ -127,11 +126,10 @@ void BM_rhs_explicit_threads(benchmark::State& state) {
 // stays cheap to make.
 void BM_rhs_threads(benchmark::State& state) {
   auto& f = fixture(static_cast<int>(state.range(0)), 0.04);
-  Case c = f.c;
-  c.solver.threads = static_cast<int>(state.range(1));
-  const System system(c, f.system->contacts());
+  const System& system = *f.system;
+  const int threads = static_cast<int>(state.range(1));
   for (auto _ : state) {
-    system.rhs(0.0, f.y, f.ydot);
+    system.rhs(0.0, f.y, f.ydot, threads);
     benchmark::DoNotOptimize(f.ydot.data());
   }
   report_nodes(state, system);
@@ -203,10 +201,10 @@ void BM_implicit_stage(benchmark::State& state) {
 // before the timing starts (its cost: implicit_stage's first call).
 void BM_implicit_stage_threads(benchmark::State& state) {
   auto& f = fixture(static_cast<int>(state.range(0)), static_cast<double>(state.range(1)) / 100);
-  Case c = f.c;
-  c.solver.threads = static_cast<int>(state.range(2));
-  const System system(c, f.system->contacts());
-  LatticeStageSolver solver(system, std::numeric_limits<double>::infinity());
+  const System& system = *f.system;
+  LatticeStageSolver solver(system, std::numeric_limits<double>::infinity(),
+                            LatticeStageSolver::ContactNewton::by_count,
+                            std::make_shared<const ThreadBudget>(static_cast<int>(state.range(2))));
   std::vector<double> z = f.y, weights(f.y.size());
   for (std::size_t i = 0; i < z.size(); ++i) weights[i] = 1.0 / (1e-6 * std::abs(f.y[i]) + 1e-9);
   solver.solve(0.0, 1e-7, f.y, weights, z);

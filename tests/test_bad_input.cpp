@@ -60,6 +60,8 @@ const std::vector<Row> kRows = {
      "interface.coverag: unknown key 'coverag' (did you mean 'coverage'?)", 4},
     {"wrong type", "[lattice]\nnx = 3\nny = \"3\"\n", "lattice.ny: expected an integer, got string",
      3},
+    {"unknown contact law", "[lattice]\nnx = 4\n[interface]\nlaw = \"dieterich\"\n",
+     "interface.law: must be one of \"paper\", got \"dieterich\"", 4},
     {"coverage 0", "[interface]\ncoverage = 0\n", "interface.coverage: must be in (0, 1], got 0",
      2},
     {"coverage -0.1", "[interface]\ncoverage = -0.1\n",

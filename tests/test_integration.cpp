@@ -35,7 +35,7 @@ TEST_CASE("implicit stage equation is solved to rounding, from rest to fast slip
       for (auto& x : b) x = speed * std::cos(angle(gen));
       const std::vector<double> at_rest(b.size(), 0.0);  // a poor predictor
       z = b;
-      s.solve_implicit_stage(gamma, at_rest, z);
+      s.contact_set().solve_implicit_stage(gamma, at_rest, z);
       s.rhs_implicit(0.0, z, f);
       double worst = 0.0;
       for (std::size_t i = 0; i < b.size(); ++i)

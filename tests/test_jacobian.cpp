@@ -262,9 +262,9 @@ TEST_CASE("the weakening rate is -d|a|/d|s| past v*, analytically, and 0 below i
   const System s(c, {{1, 1, 1e-3}});
   std::vector<double> y(static_cast<std::size_t>(s.size()), 0.0);
   const std::int64_t wx = s.w_index(s.node(1, 1, 0), 0);
-  CHECK(s.weakening_rate(y) == 0.0);  // at rest
-  y[wx] = 0.5e-3;                     // rising branch
-  CHECK(s.weakening_rate(y) == 0.0);
+  CHECK(s.contact_set().weakening_rate(y) == 0.0);  // at rest
+  y[wx] = 0.5e-3;                                   // rising branch
+  CHECK(s.contact_set().weakening_rate(y) == 0.0);
   y[wx] = 10e-3;  // r = 10: φ = e^−c, φ' = −2c e^−c / (10 ln 10)
   const double a = c.lattice.spacing, m = c.material.density * a * a * a;
   const double force = c.interface.epsilon * c.interface.shear_stress * a * a / m;  // S
@@ -274,8 +274,9 @@ TEST_CASE("the weakening rate is -d|a|/d|s| past v*, analytically, and 0 below i
       c.damping.contact * std::sqrt(g1 + (1 + 2 * c.material.poisson_ratio) * g1) / a;
   const double shape = c.interface.shape;
   const double dphi = -2 * shape * std::exp(-shape) / (10 * std::log(10.0));
-  CHECK(s.weakening_rate(y) == Approx(-(force * dphi / 1e-3 + eta_c)).epsilon(1e-12));
+  CHECK(s.contact_set().weakening_rate(y) == Approx(-(force * dphi / 1e-3 + eta_c)).epsilon(1e-12));
   // The same as the radial entry of the contact's Jacobian block, ∂a_x/∂s_x
   // along ŝ = x̂: positive, a growth rate, where the force falls with speed.
-  CHECK(s.weakening_rate(y) == Approx(s.site_block(0, y)[0]).epsilon(1e-12));
+  CHECK(s.contact_set().weakening_rate(y) ==
+        Approx(s.contact_set().site_block(0, y)[0]).epsilon(1e-12));
 }

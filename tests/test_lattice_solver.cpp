@@ -67,12 +67,10 @@ Eigen::VectorXd direct_solve(const SparseMatrix& m, const Eigen::VectorXd& rhs) 
   return lu.solve(rhs);
 }
 
-System make_system(int nx, int ny, int nz, std::vector<Contact> contacts, int patch = 1,
-                   int threads = 1) {
+System make_system(int nx, int ny, int nz, std::vector<Contact> contacts, int patch = 1) {
   Case c;
   c.lattice = {nx, ny, nz, 1e-4};
   c.interface.patch = patch;
-  c.solver.threads = threads;
   return System(c, std::move(contacts));
 }
 
@@ -398,7 +396,7 @@ TEST_CASE(
     const std::vector<double> weights(b.size(), 1e6);
     std::vector<double> free = b, z = b;
     unlimited.solve(1e-4, gamma, b, weights, free);
-    const double gamma_lambda = gamma * s.weakening_rate(free);
+    const double gamma_lambda = gamma * s.contact_set().weakening_rate(free);
     INFO("gamma " << gamma << ", gamma lambda " << gamma_lambda);
     if (gamma_lambda > kLimit) {
       CHECK_THROWS_AS(limited.solve(1e-4, gamma, b, weights, z), StageNotConverged);
@@ -422,9 +420,11 @@ TEST_CASE("a stage with many contacts gives the same bits on 1, 2 and 3 threads"
   std::vector<std::vector<double>> results;
   std::vector<long> iterations;
   for (int threads : {1, 2, 3}) {
-    const System s = make_system(12, 10, 3, contacts, 1, threads);
-    REQUIRE(s.threads() == threads);
-    LatticeStageSolver solver(s, std::numeric_limits<double>::infinity());
+    const System s = make_system(12, 10, 3, contacts);
+    const auto budget = std::make_shared<const ThreadBudget>(threads);
+    REQUIRE(budget->now() == threads);
+    LatticeStageSolver solver(s, std::numeric_limits<double>::infinity(),
+                              LatticeStageSolver::ContactNewton::by_count, budget);
     std::vector<double> b = random_state(s, 5);
     const double speeds[3][2] = {{3e-9, 1e-9}, {-4e-3, 1e-3}, {5e-2, -2e-2}};
     for (std::size_t k = 0; k < s.sites().size(); ++k) {
@@ -460,8 +460,8 @@ TEST_CASE(
   for (const Shape& shape : {Shape{32, 32, 3}, Shape{33, 32, 3}}) {
     std::vector<std::vector<double>> solutions;
     for (int threads : {1, 3}) {
-      const System s = make_system(shape.nx, shape.ny, shape.nz, {}, 1, threads);
-      LatticeSolver solver(s);
+      const System s = make_system(shape.nx, shape.ny, shape.nz, {});
+      LatticeSolver solver(s, std::make_shared<const ThreadBudget>(threads));
       const double gamma = 3e-6;
       solver.set_gamma(gamma);
       const std::int64_t n3 = 3 * s.num_nodes();

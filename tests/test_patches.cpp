@@ -76,19 +76,19 @@ TEST_CASE("every site of a patch carries the contact law, the patch moves at the
         Approx(i.epsilon * 8 * i.max_pressure * c.lattice.spacing * c.lattice.spacing)
             .epsilon(1e-15));
   std::set<std::int64_t> nodes;
-  for (const auto& site : s.sites_of(0)) nodes.insert(site.node);
+  for (const auto& site : s.contact_set().sites_of(0)) nodes.insert(site.node);
   CHECK(nodes ==
         std::set<std::int64_t>{s.node(5, 5, 0), s.node(0, 5, 0), s.node(5, 0, 0), s.node(0, 0, 0)});
 
   // Four different site velocities on patch 0.
   std::vector<double> y(static_cast<std::size_t>(s.size()), 0.0);
   const double vx[4] = {1e-4, 3e-4, -2e-4, 9e-4}, vy[4] = {0.0, 2e-4, 1e-4, -5e-4};
-  const auto sites = s.sites_of(0);
+  const auto sites = s.contact_set().sites_of(0);
   for (std::size_t k = 0; k < 4; ++k) {
     y[s.w_index(sites[k].node, 0)] = vx[k];
     y[s.w_index(sites[k].node, 1)] = vy[k];
   }
-  const auto mean = s.contact_velocity(0, y);
+  const auto mean = s.contact_set().contact_velocity(0, y);
   CHECK(mean[0] == Approx(2.75e-4).epsilon(1e-14));
   CHECK(mean[1] == Approx(-0.5e-4).epsilon(1e-14));
   // Stick/slip on the mean speed: 2.795e-4 < v*, though one site moves at 1e-3.
@@ -97,6 +97,12 @@ TEST_CASE("every site of a patch carries the contact law, the patch moves at the
   s.stick_slip_roots(y, watched, std::span(&g, 1));
   CHECK(g == Approx(std::hypot(2.75e-4, -0.5e-4) - v_star).epsilon(1e-14));
   CHECK_FALSE(s.slipping(0, y));
+  // The same root from the contact's speed alone (how the multirate stepper
+  // asks between its sub-steps), bit for bit; and the law's speed scale.
+  CHECK(s.stick_slip_root(0, s.contact_speed(0, y)) == g);
+  CHECK(s.stick_slip_root(0, 2 * v_star) == Approx(v_star).epsilon(1e-15));
+  CHECK(s.contact_set().speed_scale(0) == v_star);
+  CHECK(s.contact_set().speed_scale(1) == 2e-3);
 
   // Each site's force is that of a single-site contact (R = 1) with the patch's
   // v* at the same node and velocity; the patch's force is their sum.
@@ -114,7 +120,7 @@ TEST_CASE("every site of a patch carries the contact law, the patch moves at the
     sum_y += one.mass() * alone[one.w_index(sites[k].node, 1)];
     CHECK(alone[one.w_index(sites[k].node, 0)] != 0.0);
   }
-  CHECK(s.contact_force(0, y) == Approx(std::hypot(sum_x, sum_y)).epsilon(1e-14));
+  CHECK(s.contact_set().contact_force(0, y) == Approx(std::hypot(sum_x, sum_y)).epsilon(1e-14));
   // Nothing else feels a contact force: patch 1's sites are at rest, other nodes carry none.
   double elsewhere = 0.0;
   for (std::size_t r = 0; r < implicit.size(); ++r) elsewhere += std::abs(implicit[r]);

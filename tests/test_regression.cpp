@@ -95,7 +95,7 @@ Observation observe(const Case& c, const SolverParams& solver) {
     if (t < t_avg) target = std::min(target, t_avg);
     t = integrator->advance(target, y);
     if (t == t_avg) impulse_at_avg = y[impulse];
-    const auto s_c = s.contact_velocity(0, y);
+    const auto s_c = s.contact_set().contact_velocity(0, y);
     const double speed = std::hypot(s_c[0], s_c[1]);
     if (integrator->roots()[0] > 0) {
       slipping = true;

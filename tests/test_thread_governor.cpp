@@ -94,10 +94,14 @@ TEST_CASE("the loops' threads changed between steps leave the result as it is, b
     const System s = test::make_system(c);
     std::vector<double> y(static_cast<std::size_t>(s.size()));
     s.initial_state(c.run.initial, y);
-    const auto integrator = make_integrator(s, c.solver, y, 2e-5, {});
+    // The run's budget, which the run lowers and restores between steps.
+    const auto budget = std::make_shared<ThreadBudget>(c.solver.threads);
+    IntegratorOptions options;
+    options.threads = budget;
+    const auto integrator = make_integrator(s, c.solver, y, 2e-5, options);
     int k = 0;
     for (double t = 1e-6; t <= 2e-5 + 1e-12; t += 1e-6) {
-      if (alternate) s.set_loop_threads(1 + (k++ % 3));  // 1, 2, 3, 1, ...
+      if (alternate) budget->set_now(1 + (k++ % 3));  // 1, 2, 3, 1, ...
       integrator->advance(t, y);
     }
     finals.push_back(y);

@@ -386,6 +386,10 @@ const std::vector<Entry>& schema() {
       {"interface", "shear_stress",
        real(&Case::interface, &InterfaceParams::shear_stress, kPositive), "Pa",
        "τ_f: a contact's force scale is f0 = a² τ_f (MODEL.md §6)"},
+      {"interface", "law", choice(&Case::interface, &InterfaceParams::law, ContactLawName::paper),
+       "",
+       "the contact law (MODEL.md §6): \"paper\", F = −[ε f0 φ(|s|/v*) ŝ + m η_c s] with "
+       "φ(r) = exp(−c (log10 r)²), slipping while |s| > κ v*"},
       {"interface", "shape", real(&Case::interface, &InterfaceParams::shape, kPositive), "",
        "c in φ(r) = exp(−c (log10 r)²), the contact force's dependence on r = |s|/v*"},
       {"interface", "v_m", real(&Case::interface, &InterfaceParams::v_m, kPositive), "m/s",

@@ -58,8 +58,8 @@ struct LatticeSolver::Plans {
   }
 };
 
-LatticeSolver::LatticeSolver(const System& system)
-    : system_(system),
+LatticeSolver::LatticeSolver(const System& system, std::shared_ptr<const ThreadBudget> threads)
+    : threads_(std::move(threads)),
       nx_(system.nx()),
       ny_(system.ny()),
       nz_(system.nz()),
@@ -256,7 +256,7 @@ void LatticeSolver::solve_mode(std::int64_t m, Complex* x) const {
 
 template <class PerMode>
 void LatticeSolver::for_each_mode(PerMode&& per_mode) const {
-  parallel_for(system_.loop_threads(), modes_, per_mode);
+  parallel_for(loop_threads(), modes_, per_mode);
 }
 
 // Group by group of layers (plans_), each on one thread (its plan, its part
@@ -264,34 +264,32 @@ void LatticeSolver::for_each_mode(PerMode&& per_mode) const {
 // gathered into planes (`from`) or scattered back from them (`to`).
 void LatticeSolver::transform_forward(const double* from) {
   const std::int64_t plane = std::int64_t{nx_} * ny_;
-  parallel_for(system_.loop_threads(), static_cast<std::int64_t>(plans_->forward.size()),
-               [&](std::int64_t g) {
-                 if (from)
-                   for (std::int64_t iz = g * layers_per_group_; iz < (g + 1) * layers_per_group_;
-                        ++iz) {
-                     const double* nodes = from + 3 * plane * iz;
-                     double* planes = real_.data() + 3 * plane * iz;
-                     for (std::int64_t p = 0; p < plane; ++p)
-                       for (int k = 0; k < 3; ++k) planes[k * plane + p] = nodes[3 * p + k];
-                   }
-                 fftw_execute(plans_->forward[static_cast<std::size_t>(g)]);
-               });
+  parallel_for(
+      loop_threads(), static_cast<std::int64_t>(plans_->forward.size()), [&](std::int64_t g) {
+        if (from)
+          for (std::int64_t iz = g * layers_per_group_; iz < (g + 1) * layers_per_group_; ++iz) {
+            const double* nodes = from + 3 * plane * iz;
+            double* planes = real_.data() + 3 * plane * iz;
+            for (std::int64_t p = 0; p < plane; ++p)
+              for (int k = 0; k < 3; ++k) planes[k * plane + p] = nodes[3 * p + k];
+          }
+        fftw_execute(plans_->forward[static_cast<std::size_t>(g)]);
+      });
 }
 
 void LatticeSolver::transform_backward(double* to) {
   const std::int64_t plane = std::int64_t{nx_} * ny_;
   const double norm = 1.0 / static_cast<double>(plane);
-  parallel_for(system_.loop_threads(), static_cast<std::int64_t>(plans_->backward.size()),
-               [&](std::int64_t g) {
-                 fftw_execute(plans_->backward[static_cast<std::size_t>(g)]);
-                 for (std::int64_t iz = g * layers_per_group_; iz < (g + 1) * layers_per_group_;
-                      ++iz) {
-                   double* nodes = to + 3 * plane * iz;
-                   const double* planes = real_.data() + 3 * plane * iz;
-                   for (std::int64_t p = 0; p < plane; ++p)
-                     for (int k = 0; k < 3; ++k) nodes[3 * p + k] = norm * planes[k * plane + p];
-                 }
-               });
+  parallel_for(
+      loop_threads(), static_cast<std::int64_t>(plans_->backward.size()), [&](std::int64_t g) {
+        fftw_execute(plans_->backward[static_cast<std::size_t>(g)]);
+        for (std::int64_t iz = g * layers_per_group_; iz < (g + 1) * layers_per_group_; ++iz) {
+          double* nodes = to + 3 * plane * iz;
+          const double* planes = real_.data() + 3 * plane * iz;
+          for (std::int64_t p = 0; p < plane; ++p)
+            for (int k = 0; k < 3; ++k) nodes[3 * p + k] = norm * planes[k * plane + p];
+        }
+      });
 }
 
 // Each mode's 3 Nz unknowns lie `modes_` apart in the spectrum: gathered into

@@ -33,10 +33,12 @@ namespace stickslip {
 // couple (H = 0), need no iteration at all.
 
 LatticeStageSolver::LatticeStageSolver(const System& system, double max_gamma_lambda,
-                                       ContactNewton contact_newton)
+                                       ContactNewton contact_newton,
+                                       std::shared_ptr<const ThreadBudget> threads)
     : system_(system),
       max_gamma_lambda_(max_gamma_lambda),
-      lattice_(system),
+      threads_(threads),
+      lattice_(system, std::move(threads)),
       nodes_(system.num_nodes()),
       sites_(system.sites().size()),
       nx_(system.nx()),
@@ -134,7 +136,7 @@ long LatticeStageSolver::solve(double t, double gamma, std::span<const double> p
   refused_sites_.clear();
   set_gamma(gamma);
   // r = b_w + γ a_L(t, b_u, 0), then w0 = M⁻¹ r, held by the lattice solver.
-  system_.lattice_accelerations(t, u, zero_, acc_);
+  system_.lattice_accelerations(t, u, zero_, acc_, loop_threads());
   for (std::size_t r = 0; r < n3; ++r) w[r] += gamma * acc_[r];
   lattice_.begin_solve(w);
 
@@ -229,7 +231,7 @@ void LatticeStageSolver::factorize_jacobian() {
       }
     }
   };
-  parallel_for(system_.loop_threads(), static_cast<std::int64_t>(sites_),
+  parallel_for(loop_threads(), static_cast<std::int64_t>(sites_),
                [&](std::int64_t j) { fill_columns(static_cast<std::size_t>(j)); });
   jacobian_lu_.emplace(jacobian_);
   ++factorizations_;
@@ -553,7 +555,7 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
     sigma_(2 * i + 1) = stages_[i].s[1];
   };
   auto evaluate = [&](const Eigen::VectorXd& beta) {
-    parallel_for(system_.loop_threads(), static_cast<std::int64_t>(sites_),
+    parallel_for(loop_threads(), static_cast<std::int64_t>(sites_),
                  [&](std::int64_t i) { stage(beta, static_cast<std::size_t>(i)); });
     trial_force_ = sigma_ - beta;
     apply_coupling(trial_force_, product_);

@@ -17,9 +17,9 @@ MethodChoice choose_method(const System& system, const SolverParams& solver) {
     return {Method::imex,
             "method = \"auto\" with a fixed step: imex, the cheapest fixed-step "
             "method (docs/PERFORMANCE.md)"};
-  std::size_t weak = 0;  // contacts that stick-slip at the drive speed
-  for (const auto& c : system.contacts())
-    if (c.v_star < system.drive_velocity()) ++weak;
+  std::size_t weak = 0;  // contacts that stick-slip at the drive speed: their law's
+  for (std::size_t i = 0; i < system.contacts().size(); ++i)  // speed scale is below it
+    if (system.contact_set().speed_scale(i) < system.drive_velocity()) ++weak;
   // bdf rather than dirk: on the 30 points of Fig. 7 at v = 3e-4 both agree
   // to 2.4e-6 in μ, bdf took 1-7 s on each, dirk up to 54 s and stalled on
   // one (its contacts' Newton failing again and again in the creep).
@@ -62,6 +62,7 @@ ResolvedSolver resolve_solver(const System& system, const SolverParams& given) {
   ResolvedSolver solver{given, with_absolute_tolerances(system, given), {}};
   MethodChoice choice = choose_method(system, given);
   solver.params.method = choice.method;
+  solver.params.threads = resolved_threads(given, system.num_nodes());
   if (given.method == Method::automatic) solver.chosen_by = std::move(choice.reason);
   solver.audit_bound = given.audit_bound > 0 ? given.audit_bound
                        : given.step > 0      ? kFixedStepAuditBound
@@ -80,6 +81,7 @@ std::unique_ptr<Integrator> make_integrator(const System& system, const Resolved
                                             std::span<const double> y0, double t_stop,
                                             IntegratorOptions options, double t0) {
   const SolverParams& chosen = solver.params;
+  if (!options.threads) options.threads = std::make_shared<const ThreadBudget>(chosen.threads);
   switch (method_info(chosen.method).package) {
     case Package::arkstep:
       return std::make_unique<ArkStepIntegrator>(system, chosen, y0, t0, t_stop,
@@ -106,7 +108,7 @@ nlohmann::json describe_solver(const System& system, const ResolvedSolver& solve
     d.update(describe_tolerances(system, solver.given, p));
   }
   if (!solver.chosen_by.empty()) d["chosen_by"] = solver.chosen_by;
-  d["threads"] = system.threads();
+  d["threads"] = p.threads;
   return d;
 }
 

@@ -50,12 +50,16 @@ void SteppingIntegrator::set_up_package() {
 
 int SteppingIntegrator::full_rhs(double t, N_Vector y, N_Vector ydot, void* self) {
   auto* me = static_cast<SteppingIntegrator*>(self);
-  return guarded(me->pending_, [&] { me->system_.rhs(t, as_span(y), as_span(ydot)); });
+  return guarded(me->pending_, [&] {
+    me->system_.rhs(t, as_span(y), as_span(ydot), loop_threads(me->options_));
+  });
 }
 
 int SteppingIntegrator::explicit_rhs(double t, N_Vector y, N_Vector ydot, void* self) {
   auto* me = static_cast<SteppingIntegrator*>(self);
-  return guarded(me->pending_, [&] { me->system_.rhs_explicit(t, as_span(y), as_span(ydot)); });
+  return guarded(me->pending_, [&] {
+    me->system_.rhs_explicit(t, as_span(y), as_span(ydot), loop_threads(me->options_));
+  });
 }
 
 int SteppingIntegrator::implicit_rhs(double t, N_Vector y, N_Vector ydot, void* self) {
@@ -83,7 +87,9 @@ void SteppingIntegrator::solve_per_contact() {
   stage_solver_ = make_exact_stage_solver(
       ctx_, calls_.stage_package,
       [&system](double, double gamma, std::span<const double> predictor, std::span<const double>,
-                std::span<double> z) { return system.solve_implicit_stage(gamma, predictor, z); },
+                std::span<double> z) {
+        return system.contact_set().solve_implicit_stage(gamma, predictor, z);
+      },
       stage_stats_, pending_);
   check_call(calls_.set_nonlinear_solver(mem(), stage_solver_.get()), "SetNonlinearSolver");
 }
@@ -94,7 +100,9 @@ void SteppingIntegrator::solve_lattice() {
   // error-test failures (each cuts h by at most 10×) allow.
   check_call(calls_.set_max_err_test_fails(mem(), kMaxErrorTestFailures), "SetMaxErrTestFails");
   check_call(calls_.set_max_conv_fails(mem(), kMaxStageFailures), "SetMaxConvFails");
-  lattice_stages_ = std::make_unique<LatticeStageSolver>(system_);
+  lattice_stages_ = std::make_unique<LatticeStageSolver>(
+      system_, LatticeStageSolver::kMaxGammaLambda, LatticeStageSolver::ContactNewton::by_count,
+      options_.threads);
   stage_solver_ = make_exact_stage_solver(
       ctx_, calls_.stage_package,
       std::bind_front(&LatticeStageSolver::solve, lattice_stages_.get()), stage_stats_, pending_);
@@ -189,7 +197,7 @@ void SteppingIntegrator::rethrow_pending() {
 }
 
 double SteppingIntegrator::advance(double t_out, std::span<double> y) {
-  const ScopedKernelThreads kernels(system_.loop_threads());
+  const ScopedKernelThreads kernels(loop_threads(options_));
   std::fill(roots_.begin(), roots_.end(), 0);
   // Stepwise until the first step is taken (its h0 then comes from t_stop,
   // not t_out) and while a root found beyond an output time waits.
@@ -293,7 +301,8 @@ void SteppingIntegrator::record_step() {
   if (t <= t_last_step_) return;
   const double h = t - t_last_step_;
   // y_ holds the step's end (ONE_STEP mode).
-  const StepRecord r{t, h, local_error_norm(), h * system_.weakening_rate(as_span(y_.get()))};
+  const StepRecord r{t, h, local_error_norm(),
+                     h * system_.contact_set().weakening_rate(as_span(y_.get()))};
   t_last_step_ = t;
   options_.on_step(r);
 }

@@ -21,7 +21,9 @@ constexpr double kFallbackSpeed = 1e-3;  // [m/s]
 ToleranceScales tolerance_scales(const System& system) {
   double speed = std::numeric_limits<double>::infinity();
   if (system.drive_velocity() > 0) speed = system.drive_velocity();
-  for (const auto& c : system.contacts()) speed = std::min(speed, c.v_star);
+  // The smallest of the contacts' speed scales: their law's.
+  for (std::size_t i = 0; i < system.contacts().size(); ++i)
+    speed = std::min(speed, system.contact_set().speed_scale(i));
   if (!std::isfinite(speed)) speed = kFallbackSpeed;
   // Without contact forces (ε = 0) the lattice's own scale: the drive's
   // displacement over the time sound takes to cross one cell.

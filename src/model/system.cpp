@@ -84,47 +84,37 @@ void System::driven(double t, const double* u, const double* w, Driven&& node_ti
   });
 }
 
+// Every member up to contact_set_ in the member initializers, in their
+// order: the contacts' law takes the force scale and η_c derived here.
 System::System(const Case& c, std::vector<Contact> contacts)
     : nx_(c.lattice.nx),
       ny_(c.lattice.ny),
       nz_(c.lattice.nz),
       n_(std::int64_t{nx_} * ny_ * nz_),
-      threads_(resolved_threads(c.solver, n_)),
-      loop_threads_(threads_),
-      contacts_(std::move(contacts)),
-      patch_(c.interface.patch) {
-  const auto& mat = c.material;
-  a_ = c.lattice.spacing;
-  mass_ = mat.density * a_ * a_ * a_;
-  // §2: G1 = c_t², G2 from the paper's Eq. (1) or the Navier equation.
-  g1_ = mat.youngs_modulus / (2.0 * (1.0 + mat.poisson_ratio) * mat.density);
-  g2_ = mat.grad_div == GradDiv::paper ? (1.0 + 2.0 * mat.poisson_ratio) * g1_
-                                       : g1_ / (1.0 - 2.0 * mat.poisson_ratio);
-  // k1/m = G1/a², k2/m = G2/a², k_d = k1.
-  k1_over_m_ = g1_ / (a_ * a_);
-  k2_over_m_ = g2_ / (a_ * a_);
-  kd_over_m_ = k1_over_m_;
-  const double omega0 = longitudinal_speed() / a_;
-  eta_ = c.damping.bulk * omega0;
-  eta_c_ = c.damping.contact * omega0;
-  v_ = c.drive.velocity;
-  const auto& iface = c.interface;
-  law_.shape = iface.shape;
-  contact_force_scale_ = iface.epsilon * a_ * a_ * iface.shear_stress / mass_;
-  if (patch_ < 1 || patch_ > std::min(nx_, ny_))
-    throw std::invalid_argument("patch size outside [1, min(nx, ny)]");
-  if (first_overlap(contacts_, patch_, nx_, ny_))
-    throw std::invalid_argument("contact patches overlap");
-  for (const auto& ct : contacts_) {
-    if (ct.ix < 0 || ct.ix >= nx_ || ct.iy < 0 || ct.iy >= ny_ || !(ct.v_star > 0.0))
-      throw std::invalid_argument("contact outside the bottom layer or with v* <= 0");
-    for (const auto& [x, y] : patch_sites(ct.ix, ct.iy, patch_, nx_, ny_))
-      sites_.push_back({x, y, node(x, y, 0), ct.v_star});
-  }
+      a_(c.lattice.spacing),
+      mass_(c.material.density * a_ * a_ * a_),
+      // §2: G1 = c_t², G2 from the paper's Eq. (1) or the Navier equation.
+      g1_(c.material.youngs_modulus /
+          (2.0 * (1.0 + c.material.poisson_ratio) * c.material.density)),
+      g2_(c.material.grad_div == GradDiv::paper ? (1.0 + 2.0 * c.material.poisson_ratio) * g1_
+                                                : g1_ / (1.0 - 2.0 * c.material.poisson_ratio)),
+      // k1/m = G1/a², k2/m = G2/a², k_d = k1.
+      k1_over_m_(g1_ / (a_ * a_)),
+      k2_over_m_(g2_ / (a_ * a_)),
+      kd_over_m_(k1_over_m_),
+      // η = η̂ ω0, η_c = η̂_c ω0 with ω0 = c_l / a.
+      eta_(c.damping.bulk * (longitudinal_speed() / a_)),
+      eta_c_(c.damping.contact * (longitudinal_speed() / a_)),
+      v_(c.drive.velocity),
+      contact_force_scale_(c.interface.epsilon * a_ * a_ * c.interface.shear_stress / mass_),
+      normal_force_(0.0),
+      mu_prefactor_(c.interface.shear_stress / c.interface.max_pressure),
+      contact_set_(c.interface, std::move(contacts), nx_, ny_, n_, mass_, contact_force_scale_,
+                   eta_c_) {
   // §7, §14: F_N = ε θ P0 Nx Ny a² with θ the covered fraction, sites/(Nx Ny).
-  normal_force_ = iface.epsilon * static_cast<double>(sites_.size()) * iface.max_pressure * a_ * a_;
-  mu_prefactor_ = iface.shear_stress / iface.max_pressure;
-  slip_threshold_ = iface.slip_threshold;
+  const auto& iface = c.interface;
+  normal_force_ = iface.epsilon * static_cast<double>(contact_set_.sites().size()) *
+                  iface.max_pressure * a_ * a_;
 
   x_next_.resize(nx_);
   y_next_.resize(ny_);
@@ -146,7 +136,7 @@ std::string System::describe_component(std::int64_t i) const {
 }
 
 double System::coverage() const {
-  return static_cast<double>(sites_.size()) / (nx_ * ny_);
+  return static_cast<double>(contact_set_.sites().size()) / (nx_ * ny_);
 }
 
 void System::initial_state(InitialState initial, std::span<double> y) const {
@@ -159,7 +149,8 @@ void System::initial_state(InitialState initial, std::span<double> y) const {
 // and their forces scattered to both ends, which counts periodic images with their multiplicity on
 // small lattices exactly as §3 defines.
 void System::lattice_accelerations(double t, std::span<const double> u_in,
-                                   std::span<const double> w_in, std::span<double> acc_out) const {
+                                   std::span<const double> w_in, std::span<double> acc_out,
+                                   int threads) const {
   const double* u = u_in.data();
   const double* w = w_in.data();
   double* acc = acc_out.data();
@@ -192,7 +183,7 @@ void System::lattice_accelerations(double t, std::span<const double> u_in,
     cells(iz, cell);
   };
   for (int parity = 0; parity < 2; ++parity)
-    parallel_for(loop_threads_, (nz_ - parity + 1) / 2,
+    parallel_for(threads, (nz_ - parity + 1) / 2,
                  [&](std::int64_t k) { layer(parity + 2 * static_cast<int>(k)); });
 
   // Drive springs and dashpots to the plate moving at (v, 0, 0) (§5).
@@ -201,19 +192,11 @@ void System::lattice_accelerations(double t, std::span<const double> u_in,
   });
 }
 
-void System::add_contact_accelerations(std::span<const double> y, std::span<double> ydot) const {
-  for (std::size_t j = 0; j < sites_.size(); ++j) {
-    const auto a = site_acceleration(j, site_velocity(j, y));
-    const std::int64_t wx = w_index(sites_[j].node, 0);
-    ydot[wx] += a[0];
-    ydot[wx + 1] += a[1];
-  }
-}
-
-void System::rhs_explicit(double t, std::span<const double> y, std::span<double> ydot) const {
+void System::rhs_explicit(double t, std::span<const double> y, std::span<double> ydot,
+                          int threads) const {
   std::copy(y.begin() + 3 * n_, y.begin() + 6 * n_, ydot.begin());  // u' = w
   lattice_accelerations(t, y.subspan(0, 3 * n_), y.subspan(3 * n_, 3 * n_),
-                        ydot.subspan(3 * n_, 3 * n_));
+                        ydot.subspan(3 * n_, 3 * n_), threads);
   const auto rates = quadrature_rates(t, y);
   std::copy(rates.begin(), rates.end(), ydot.begin() + quadrature_index(work_in));
 }
@@ -225,17 +208,12 @@ std::array<double, System::kQuadratures> System::quadrature_rates(double t,
 
 void System::rhs_implicit(double, std::span<const double> y, std::span<double> ydot) const {
   std::fill(ydot.begin(), ydot.end(), 0.0);
-  add_contact_accelerations(y, ydot);
+  contact_set_.add_accelerations(y, ydot);
 }
 
-void System::rhs(double t, std::span<const double> y, std::span<double> ydot) const {
-  rhs_explicit(t, y, ydot);
-  add_contact_accelerations(y, ydot);
-}
-
-std::array<double, 4> System::site_block(std::size_t j, std::span<const double> y) const {
-  const auto s = site_velocity(j, y);
-  return contact_jacobian(law_, contact_force_scale_, eta_c_, sites_[j].v_star, s[0], s[1]);
+void System::rhs(double t, std::span<const double> y, std::span<double> ydot, int threads) const {
+  rhs_explicit(t, y, ydot, threads);
+  contact_set_.add_accelerations(y, ydot);
 }
 
 SparseJacobian System::jacobian_pattern(JacobianPart part) const {
@@ -247,14 +225,14 @@ SparseJacobian System::jacobian_pattern(JacobianPart part) const {
   std::vector<char> kept_row;
   if (part == JacobianPart::site_rows) {
     kept_row.assign(static_cast<std::size_t>(size), 0);
-    for (const auto& site : sites_)
+    for (const auto& site : contact_set_.sites())
       for (int r = 0; r < 2; ++r) kept_row[static_cast<std::size_t>(w_index(site.node, r))] = 1;
   }
   auto add = [&](std::int64_t r, std::int64_t c, double v) {
     if (kept_row.empty() || kept_row[static_cast<std::size_t>(r)]) t.emplace_back(r, c, v);
   };
   for (std::int64_t r = 0; r < size; ++r) add(r, r, 0.0);
-  for (const auto& site : sites_) {
+  for (const auto& site : contact_set_.sites()) {
     const std::int64_t wx = w_index(site.node, 0);
     for (int r = 0; r < 2; ++r)
       for (int c = 0; c < 2; ++c) add(wx + r, wx + c, 0.0);
@@ -310,7 +288,7 @@ SparseJacobian System::jacobian_pattern(JacobianPart part) const {
     const auto last = jac.column.begin() + jac.row_start[r + 1];
     return static_cast<std::int64_t>(std::lower_bound(first, last, c) - jac.column.begin());
   };
-  for (const auto& site : sites_) {
+  for (const auto& site : contact_set_.sites()) {
     const std::int64_t wx = w_index(site.node, 0);
     jac.contact_slot.push_back(
         {slot(wx, wx), slot(wx, wx + 1), slot(wx + 1, wx), slot(wx + 1, wx + 1)});
@@ -320,120 +298,7 @@ SparseJacobian System::jacobian_pattern(JacobianPart part) const {
 
 void System::jacobian_values(std::span<const double> y, SparseJacobian& jac) const {
   std::copy(jac.constant_value.begin(), jac.constant_value.end(), jac.value.begin());
-  for (std::size_t j = 0; j < sites_.size(); ++j) {
-    const auto block = site_block(j, y);
-    for (int k = 0; k < 4; ++k) jac.value[jac.contact_slot[j][k]] += block[k];
-  }
-}
-
-// Site j: z + γ k(|z|) z = b with k(λ) = S φ(λ/v*)/λ + η_c ≥ 0 (S = ε f0/m),
-// so z is parallel to b and its length λ solves
-//     g(λ) = λ (1 + γ η_c) + γ S φ(λ/v*) − |b| = 0,   0 ≤ λ ≤ |b|/(1 + γ η_c),
-// where g starts negative and ends non-negative. On the velocity-weakening
-// branch (λ > v*) g need not be monotone; the bracket is then chosen on the
-// side of the predictor's speed so the root found continues the trajectory.
-// Newton runs in x = ln λ, where φ is a Gaussian and well-behaved across the
-// 10¹⁰–10¹⁵ s⁻¹ stiffness near rest that defeats Newton in λ (MODEL.md §12),
-// safeguarded by bisection of the bracket.
-//
-// ∂z/∂b: radially dλ/d|b| = 1/g'(λ), tangentially λ/|b| (z stays parallel
-// to b), so ∂z/∂b = (1/g') b̂b̂ᵀ + (λ/|b|)(I − b̂b̂ᵀ); at b = 0 it is I/(1 + γ η_c)
-// (φ(r)/r and φ'(r) vanish as r → 0).
-ContactStage System::site_stage(std::size_t j, double gamma, std::array<double, 2> b,
-                                double predictor_speed, bool derivative) const {
-  ContactStage out;
-  const double damping = 1.0 + gamma * eta_c_;
-  const double gs = gamma * contact_force_scale_;
-  const double bx = b[0], by = b[1];
-  const double b_len = std::hypot(bx, by);
-  const double v_star = sites_[j].v_star;
-  auto pure_damping = [&] {
-    out.s = {bx / damping, by / damping};
-    if (derivative) out.ds_db = {1.0 / damping, 0.0, 0.0, 1.0 / damping};
-    return out;
-  };
-  if (b_len == 0.0) return pure_damping();
-  auto g = [&](double lambda) { return lambda * damping + gs * law_.phi(lambda / v_star) - b_len; };
-  auto dg = [&](double lambda) { return damping + gs * law_.dphi(lambda / v_star) / v_star; };
-  // g(λ) and dg/dx (x = ln λ), sharing one evaluation of φ.
-  auto g_and_slope = [&](double lambda) {
-    const auto [phi, dphi] = law_.phi_and_dphi(lambda / v_star);
-    return std::array{lambda * damping + gs * phi - b_len, lambda * (damping + gs * dphi / v_star)};
-  };
-
-  double hi = b_len / damping;
-  // Below this speed φ is under 1e-300: the force is pure damping.
-  double lo = v_star * 1e-40;
-  if (hi <= lo || g(lo) >= 0.0) return pure_damping();
-  // Newton starts from the predictor's speed, which is near the root when the
-  // step is small (b itself when gamma is small); its first iteration puts the
-  // predictor at one end of the bracket, so the root found is on the
-  // predictor's side. A predictor outside the bracket says nothing: start in
-  // its middle.
-  double lambda = std::clamp(predictor_speed, lo, hi);
-  if (!(lambda > lo && lambda < hi)) lambda = std::sqrt(lo * hi);
-  bool converged = false;
-  for (int it = 0; it < 200 && !converged; ++it) {
-    ++out.iterations;
-    const auto [gl, slope] = g_and_slope(lambda);
-    if (gl == 0.0) break;
-    (gl < 0.0 ? lo : hi) = lambda;
-    double next = slope > 0.0 ? lambda * std::exp(-gl / slope) : 0.0;
-    if (!(next > lo && next < hi)) next = std::sqrt(lo * hi);  // bisect in x
-    converged = std::abs(next - lambda) <= 1e-15 * lambda || hi - lo <= 1e-15 * hi;
-    lambda = next;
-  }
-  if (!std::isfinite(lambda))
-    throw StageNotConverged("contact stage solve produced a non-finite speed");
-  const double scale = lambda / b_len;
-  out.s = {bx * scale, by * scale};
-  if (derivative) {
-    const double radial = 1.0 / dg(lambda);
-    const double ux = bx / b_len, uy = by / b_len;
-    out.ds_db = {scale + (radial - scale) * ux * ux, (radial - scale) * ux * uy,
-                 (radial - scale) * ux * uy, scale + (radial - scale) * uy * uy};
-  }
-  return out;
-}
-
-long System::solve_implicit_stage(double gamma, std::span<const double> predictor,
-                                  std::span<double> z) const {
-  long iterations = 0;
-  for (std::size_t j = 0; j < sites_.size(); ++j) {
-    const std::int64_t wx = w_index(sites_[j].node, 0);
-    const ContactStage c = site_stage(j, gamma, {z[wx], z[wx + 1]},
-                                      std::hypot(predictor[wx], predictor[wx + 1]), false);
-    iterations += c.iterations;
-    z[wx] = c.s[0];
-    z[wx + 1] = c.s[1];
-  }
-  return iterations;
-}
-
-double System::weakening_rate(std::span<const double> y) const {
-  double rate = 0.0;
-  for (std::size_t j = 0; j < sites_.size(); ++j)
-    rate = std::max(rate, site_weakening_rate(j, site_velocity(j, y)));
-  return rate;
-}
-
-double System::site_weakening_rate(std::size_t j, std::array<double, 2> s) const {
-  const double speed = std::hypot(s[0], s[1]);
-  if (!(speed > 0.0)) return 0.0;  // at rest the force rises with speed
-  // The Jacobian block along ŝ: ∂a/∂|s|, positive past the peak.
-  const auto b = contact_jacobian(law_, contact_force_scale_, eta_c_, sites_[j].v_star, s[0], s[1]);
-  const double nx = s[0] / speed, ny = s[1] / speed;
-  return std::max(0.0, nx * (b[0] * nx + b[1] * ny) + ny * (b[2] * nx + b[3] * ny));
-}
-
-double System::site_damping_rate(std::size_t j, std::array<double, 2> s) const {
-  const auto b = contact_jacobian(law_, contact_force_scale_, eta_c_, sites_[j].v_star, s[0], s[1]);
-  const double speed = std::hypot(s[0], s[1]);
-  if (!(speed > 0.0)) return -std::max(b[0], b[3]);  // isotropic at rest
-  const double nx = s[0] / speed, ny = s[1] / speed;
-  const double radial = nx * (b[0] * nx + b[1] * ny) + ny * (b[2] * nx + b[3] * ny);
-  const double tangential = ny * (b[0] * ny - b[1] * nx) - nx * (b[2] * ny - b[3] * nx);
-  return -std::max(radial, tangential);
+  contact_set_.add_jacobian_blocks(y, jac.contact_slot, jac.value);
 }
 
 double System::drive_stretch(double t, std::span<const double> y) const {
@@ -471,19 +336,8 @@ double System::lattice_dissipation(std::span<const double> y) const {
   return mass_ * eta_ * (face_sum + drive);
 }
 
-// ε f0 φ |s| + m η_c |s|² = −m a·s for each contact.
-double System::contact_dissipation(std::span<const double> y) const {
-  double sum = 0.0;
-  for (std::size_t j = 0; j < sites_.size(); ++j) {
-    const auto s = site_velocity(j, y);
-    const auto a = site_acceleration(j, s);
-    sum -= a[0] * s[0] + a[1] * s[1];
-  }
-  return mass_ * sum;
-}
-
 double System::dissipation(std::span<const double> y) const {
-  return lattice_dissipation(y) + contact_dissipation(y);
+  return lattice_dissipation(y) + contact_set_.dissipation(y);
 }
 
 EnergyTerms System::energy(double t, std::span<const double> y) const {
@@ -530,91 +384,14 @@ double System::block_velocity(std::span<const double> y) const {
   return sum / static_cast<double>(n_);
 }
 
-double System::total_contact_force(std::span<const double> y) const {
-  double sum = 0.0;
-  for (std::size_t j = 0; j < sites_.size(); ++j)
-    sum += site_acceleration(j, site_velocity(j, y))[0];
-  return mass_ * sum;
-}
-
 double System::contact_impulse(double t, std::span<const double> y) const {
   double momentum = 0.0;
   for (std::int64_t n = 0; n < n_; ++n) momentum += y[w_index(n, 0)];
   return mass_ * (momentum - eta_ * drive_stretch(t, y)) - y[quadrature_index(friction_impulse)];
 }
 
-std::array<double, 2> System::contact_velocity(std::size_t i, std::span<const double> y) const {
-  const auto sites = sites_of(i);
-  if (sites.size() == 1) return site_velocity(i, y);  // R = 1: no rounding by the mean
-  std::array<double, 2> mean{};
-  for (const auto& site : sites) {
-    const std::int64_t wx = w_index(site.node, 0);
-    mean[0] += y[wx];
-    mean[1] += y[wx + 1];
-  }
-  const double n = static_cast<double>(sites.size());
-  return {mean[0] / n, mean[1] / n};
-}
-
-double System::contact_speed(std::size_t i, std::span<const double> y) const {
-  const auto s = contact_velocity(i, y);
-  return std::hypot(s[0], s[1]);
-}
-
-std::array<double, 2> System::contact_displacement(std::size_t i, std::span<const double> y) const {
-  const auto sites = sites_of(i);
-  std::array<double, 2> mean{};
-  for (const auto& site : sites) {
-    const std::int64_t ux = u_index(site.node, 0);
-    mean[0] += y[ux];
-    mean[1] += y[ux + 1];
-  }
-  const double n = static_cast<double>(sites.size());
-  return {mean[0] / n, mean[1] / n};
-}
-
-double System::contact_load(std::size_t i, std::span<const double> acc) const {
-  std::array<double, 2> sum{};
-  for (const auto& site : sites_of(i)) {
-    sum[0] += acc[static_cast<std::size_t>(3 * site.node)];
-    sum[1] += acc[static_cast<std::size_t>(3 * site.node + 1)];
-  }
-  return mass_ * std::hypot(sum[0], sum[1]);
-}
-
-std::array<double, 2> System::site_acceleration(std::size_t j, std::array<double, 2> s) const {
-  return stickslip::contact_acceleration(law_, contact_force_scale_, eta_c_, sites_[j].v_star, s[0],
-                                         s[1]);
-}
-
-void System::stick_slip_roots(std::span<const double> y, std::span<const int> watched,
-                              std::span<double> g) const {
-  for (std::size_t k = 0; k < watched.size(); ++k) {
-    const auto i = static_cast<std::size_t>(watched[k]);
-    g[k] = contact_speed(i, y) - slip_threshold_ * contacts_[i].v_star;
-  }
-}
-
-bool System::slipping(std::size_t i, std::span<const double> y) const {
-  const auto s = contact_velocity(i, y);
-  return std::hypot(s[0], s[1]) > slip_threshold_ * contacts_[i].v_star;
-}
-
-double System::contact_force(std::size_t i, std::span<const double> y) const {
-  std::array<double, 2> sum{};
-  const std::size_t first = i * sites_of(i).size();
-  for (std::size_t j = first; j < first + sites_of(i).size(); ++j) {
-    const auto a = site_acceleration(j, site_velocity(j, y));
-    sum[0] += a[0];
-    sum[1] += a[1];
-  }
-  return mass_ * std::hypot(sum[0], sum[1]);
-}
-
 double System::steady_sliding_mu() const {
-  double mean_phi = 0.0;
-  for (const auto& c : contacts_) mean_phi += law_.phi(v_ / c.v_star);
-  mean_phi /= static_cast<double>(contacts_.size());
+  const double mean_phi = contact_set_.mean_steady_phi(v_);
   // m η_c v / (ε P0 a²) = η_c v / (ε f0/m) × τ_f/P0.
   return mu_prefactor_ * (mean_phi + eta_c_ * v_ / contact_force_scale_);
 }

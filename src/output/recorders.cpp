@@ -115,7 +115,8 @@ class TracesRecorder final : public Recorder {
   void record(double t, std::span<const double> y) override {
     row_[0] = t;
     for (std::size_t k = 0; k < traced_.size(); ++k) {
-      const auto v = system_.contact_velocity(static_cast<std::size_t>(traced_[k]), y);
+      const auto v =
+          system_.contact_set().contact_velocity(static_cast<std::size_t>(traced_[k]), y);
       row_[1 + 2 * k] = v[0];
       row_[2 + 2 * k] = v[1];
     }
@@ -205,8 +206,10 @@ class EventsRecorder final : public Recorder {
   void record(double t, std::span<const double> y) override {
     if (!pair_traced_) return;
     pair_t_.push_back(t);
-    pair_va_.push_back(system_.contact_velocity(static_cast<std::size_t>(pair_->first), y)[0]);
-    pair_vb_.push_back(system_.contact_velocity(static_cast<std::size_t>(pair_->second), y)[0]);
+    pair_va_.push_back(
+        system_.contact_set().contact_velocity(static_cast<std::size_t>(pair_->first), y)[0]);
+    pair_vb_.push_back(
+        system_.contact_set().contact_velocity(static_cast<std::size_t>(pair_->second), y)[0]);
   }
   void event(const Event& e, std::span<const double>) override {
     events_.push_back(e);
@@ -363,8 +366,8 @@ class SlipsRecorder final : public Recorder {
       system_.lattice_accelerations(e.t, y.subspan(0, n3), y.subspan(n3, n3), acc_);
       have_acc_ = true;
     }
-    return {e.t, system_.contact_displacement(i, y), system_.contact_load(i, acc_),
-            system_.friction_force(e.t, y), e.speed};
+    return {e.t, system_.contact_set().contact_displacement(i, y),
+            system_.contact_set().contact_load(i, acc_), system_.friction_force(e.t, y), e.speed};
   }
 
   const System& system_;

@@ -216,7 +216,12 @@ struct CaseRun::State {
   double impulse_at_average = std::nan("");
   std::vector<RunSegment> segments;  // every attempt of the run, this one last
   Progress progress;
-  ThreadGovernor threads{system.threads()};
+  // The run's threads ([solver] threads, resolved as resolve_solver does),
+  // handed to the integrator in its options; the governor lowers what its
+  // loops use while they do not get their cores.
+  std::shared_ptr<ThreadBudget> budget =
+      std::make_shared<ThreadBudget>(resolved_threads(c.solver, system.num_nodes()));
+  ThreadGovernor threads{budget->threads()};
 };
 
 namespace {
@@ -269,6 +274,7 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
 
   IntegratorOptions integrator_options;
   integrator_options.watched_contacts = watched;
+  integrator_options.threads = budget;
   // Between output times too, every few hundred steps (the method's poll
   // interval, case/methods.hpp): flush the outputs now and then, and stop at
   // once when a stop is requested.
@@ -349,15 +355,15 @@ void CaseRun::State::record_events(double t) {
   for (std::size_t k = 0; k < roots.size(); ++k) {
     if (roots[k] == 0) continue;
     const auto id = static_cast<std::size_t>(watched[k]);
-    const auto v = system.contact_velocity(id, y);
+    const auto v = system.contact_set().contact_velocity(id, y);
     const Event e{t, watched[k], roots[k] > 0 ? EventKind::slip : EventKind::stick,
-                  std::hypot(v[0], v[1]), system.contact_force(id, y)};
+                  std::hypot(v[0], v[1]), system.contact_set().contact_force(id, y)};
     for (const auto& r : recorders) r->event(e, y);
   }
 }
 
 void CaseRun::State::govern_threads() {
-  system.set_loop_threads(threads.update(seconds_since(wall_start), process_wait_seconds));
+  budget->set_now(threads.update(seconds_since(wall_start), process_wait_seconds));
 }
 
 double CaseRun::State::advance_to(double target) {

@@ -24,6 +24,16 @@ enum class Method { imex, dirk, bdf, erk, rk4, multirate, automatic };
 // says why (a sparse LU of the 3D lattice, docs/PERFORMANCE.md).
 enum class LinearSolver { automatic, fft };
 enum class ContactSelection { all, none, list };  // which contacts an output covers
+// The contact law ([interface] law): "paper", MODEL.md §6's φ(r) = exp(−c
+// (log10 r)²). Each name is one law of model/friction_law.hpp (ContactLaws).
+enum class ContactLawName { paper };
+inline const char* to_string(ContactLawName law) {
+  switch (law) {
+    case ContactLawName::paper:
+      return "paper";
+  }
+  return "?";
+}
 
 struct LatticeParams {
   int nx = 15;
@@ -52,6 +62,7 @@ struct ExplicitContact {
 };
 
 struct InterfaceParams {
+  ContactLawName law = ContactLawName::paper;
   double coverage = 0.1;  // θ requested; N_c = floor(θ Nx Ny + 0.5)
   std::uint64_t seed = 1;
   double shear_stress = 6.5e6;  // τ_f [Pa]

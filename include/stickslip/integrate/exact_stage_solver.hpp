@@ -33,7 +33,7 @@ struct StageStats {
 
 // Solves z − γ f_I(t, z) = b: z holds b on entry and the solution on return;
 // `predictor` is the integrator's guess, `weights` its error weights. Returns
-// iterations; throws StageNotConverged (model/system.hpp) when it fails, and
+// iterations; throws StageNotConverged (model/friction_law.hpp) when it fails, and
 // the integrator retries with a smaller step.
 using ExactStageSolve =
     std::function<long(double t, double gamma, std::span<const double> predictor,

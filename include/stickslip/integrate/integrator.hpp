@@ -17,6 +17,7 @@
 #include "stickslip/integrate/solver_stats.hpp"
 #include "stickslip/integrate/step_record.hpp"
 #include "stickslip/integrate/tolerances.hpp"
+#include "stickslip/model/parallel_for.hpp"
 #include "stickslip/model/system.hpp"
 
 namespace stickslip {
@@ -34,7 +35,17 @@ struct IntegratorOptions {
   // run stalled inside one output interval still answers SIGINT/SIGTERM and
   // flushes its outputs.
   std::function<bool()> poll;
+  // The run's threads, which the integrator's loops use as many of as it
+  // says now (the run lowers it while they wait for cores). Unset:
+  // make_integrator gives [solver] threads, resolved; an integrator made
+  // without one runs on one thread.
+  std::shared_ptr<const ThreadBudget> threads;
 };
+
+// The threads an integrator's loops use now under `options`.
+inline int loop_threads(const IntegratorOptions& options) {
+  return options.threads ? options.threads->now() : 1;
+}
 
 // Error-test failures allowed in one step of an exactly solved implicit method
 // (SUNDIALS' default: 7).

@@ -28,13 +28,16 @@
 #include <span>
 #include <vector>
 
+#include "stickslip/model/parallel_for.hpp"
 #include "stickslip/model/system.hpp"
 
 namespace stickslip {
 
 class LatticeSolver {
  public:
-  explicit LatticeSolver(const System& system);
+  // Its loops run on `threads` (the run's budget); none: one thread.
+  explicit LatticeSolver(const System& system,
+                         std::shared_ptr<const ThreadBudget> threads = nullptr);
   ~LatticeSolver();
   LatticeSolver(const LatticeSolver&) = delete;
   LatticeSolver& operator=(const LatticeSolver&) = delete;
@@ -95,7 +98,7 @@ class LatticeSolver {
   void probe(const System& system);
   void factorize_mode(std::int64_t m);
   void solve_mode(std::int64_t m, Complex* x) const;
-  // per_mode(m) for every mode, on the system's loop threads.
+  // per_mode(m) for every mode, on the run's loop threads.
   template <class PerMode>
   void for_each_mode(PerMode&& per_mode) const;
   // `from` (3N values, the state's node order) → real_ → spectrum_.
@@ -112,7 +115,8 @@ class LatticeSolver {
   // Layers of at least this many nodes get an FFT plan each (threads take
   // them layer by layer); smaller ones share one plan.
   static constexpr std::int64_t kLayeredFftPoints = 1024;
-  const System& system_;  // for its loop threads
+  int loop_threads() const { return threads_ ? threads_->now() : 1; }
+  std::shared_ptr<const ThreadBudget> threads_;  // the run's; none: one thread
   int nx_, ny_, nz_;
   int layers_per_group_ = 1;  // of the velocity field's FFT plans
   std::int64_t modes_;        // Nx/2+1 times Ny (the half spectrum of a real 2D field)

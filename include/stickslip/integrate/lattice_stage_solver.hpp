@@ -14,6 +14,7 @@
 #include <Eigen/Dense>
 #include <Eigen/SparseLU>
 #include <array>
+#include <memory>
 #include <optional>
 #include <span>
 #include <vector>
@@ -45,15 +46,18 @@ class LatticeStageSolver {
   static constexpr std::size_t kMaxDenseSites = 1000;
   static bool uses_dense_lu(std::size_t sites) { return sites <= kMaxDenseSites; }
 
+  // Its loops and the lattice solver's run on `threads` (the run's budget,
+  // IntegratorOptions::threads); none: one thread.
   explicit LatticeStageSolver(const System& system, double max_gamma_lambda = kMaxGammaLambda,
-                              ContactNewton contact_newton = ContactNewton::by_count);
+                              ContactNewton contact_newton = ContactNewton::by_count,
+                              std::shared_ptr<const ThreadBudget> threads = nullptr);
 
   // z holds b on entry and the solution on return. `predictor` (the
   // integrator's guess for z) picks among several roots on the
   // velocity-weakening branch and starts Newton; `weights` are the error
   // weights 1/(rtol |y| + atol): the contacts' speeds are converged to 1e-6 of
   // the integrator's tolerance. Returns the Newton iterations on the
-  // contacts' coupled speeds; throws StageNotConverged (model/system.hpp)
+  // contacts' coupled speeds; throws StageNotConverged (model/friction_law.hpp)
   // when they do not converge or a stage is refused (kMaxGammaLambda), and
   // the integrator then retries with a smaller step.
   long solve(double t, double gamma, std::span<const double> predictor,
@@ -120,8 +124,11 @@ class LatticeStageSolver {
   };
   StepSolve newton_step(bool krylov, double norm, double lu_in_krylov, Eigen::Index max_krylov);
 
+  int loop_threads() const { return threads_ ? threads_->now() : 1; }
+
   const System& system_;
   double max_gamma_lambda_;
+  std::shared_ptr<const ThreadBudget> threads_;  // the run's; none: one thread
   LatticeSolver lattice_;
   std::int64_t nodes_;
   std::size_t sites_;

@@ -37,7 +37,8 @@ inline constexpr double kFixedStepAuditBound = 1e-4;
 // once, here, and handed down, so no part of a run applies a rule again.
 struct ResolvedSolver {
   SolverParams given;     // the case's own: what summary.json says was given
-  SolverParams params;    // a method, never "auto"; atol_* by the rule where not given
+  SolverParams params;    // a method, never "auto"; atol_* by the rule where not given;
+                          // threads resolved (resolved_threads): the run's budget
   std::string chosen_by;  // why "auto" chose params.method; empty if the case named it
   // The largest |energy-audit residual| at t_end a result may have:
   // [solver] audit_bound, else 100 × rtol (sound runs show 0.01–10 × rtol,

@@ -1,7 +1,7 @@
 #pragma once
 // RAII ownership of SUNDIALS objects and the one exception boundary every
 // C callback goes through. Nothing here knows about the physics but its one
-// recoverable failure, StageNotConverged (model/system.hpp).
+// recoverable failure, StageNotConverged (model/friction_law.hpp).
 
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_context.h>
@@ -83,7 +83,7 @@ inline std::span<double> as_span(N_Vector v) {
 // its C++ code through guarded(), so no exception ever crosses a SUNDIALS
 // frame. It returns what SUNDIALS' callbacks return:
 //    0  success;
-//    1  recoverable: the body threw StageNotConverged (model/system.hpp), a
+//    1  recoverable: the body threw StageNotConverged (model/friction_law.hpp), a
 //       stage solve that did not converge or was refused, which a smaller
 //       step cures; the package retries with a smaller step where its
 //       callback allows it (the stage solver turns 1 into SUN_NLS_CONV_RECVR,

@@ -16,6 +16,26 @@
 
 namespace stickslip {
 
+// A run's threads: the count it was given ([solver] threads, resolved by
+// resolved_threads) and, of those, what its loops use now. The run owns it
+// and lowers `now` while its threads do not get their cores (ThreadGovernor,
+// run/thread_governor.hpp); the integrators read it through their options
+// (IntegratorOptions::threads) and hand it to every parallel loop, the
+// System's among them. The machine's load, not the physics: results do not
+// depend on it (parallel_for), so it may change between any two steps.
+class ThreadBudget {
+ public:
+  explicit ThreadBudget(int threads = 1) : threads_(threads < 1 ? 1 : threads), now_(threads_) {}
+  int threads() const { return threads_; }
+  int now() const { return now_; }
+  // Clamped to [1, threads()].
+  void set_now(int threads) { now_ = threads < 1 ? 1 : threads > threads_ ? threads_ : threads; }
+
+ private:
+  int threads_;
+  int now_;
+};
+
 template <class F>
 void parallel_for(int threads, std::int64_t n, F&& f) {
   if (threads <= 1 || n < 2) {

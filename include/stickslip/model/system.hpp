@@ -22,6 +22,7 @@
 
 #include "stickslip/case/case.hpp"
 #include "stickslip/case/placement.hpp"
+#include "stickslip/model/contacts.hpp"
 #include "stickslip/model/friction_law.hpp"
 
 namespace stickslip {
@@ -47,31 +48,6 @@ struct SparseJacobian {
 // reads: O(N_c) entries, where the whole matrix holds ~200 a node).
 enum class JacobianPart { contacts, full, site_rows };
 
-// One contact's implicit stage equation s − γ a_c(s) = b solved exactly
-// (a_c: its in-plane acceleration, MODEL.md §6), with ∂s/∂b when asked for.
-struct ContactStage {
-  std::array<double, 2> s{};
-  std::array<double, 4> ds_db{};  // row-major; filled only when asked for
-  long iterations = 0;            // scalar Newton iterations
-};
-
-// One bottom node carrying the contact law of MODEL.md §6. A contact's R×R
-// patch (§14) is R² sites with the contact's v*; for R = 1 site j is contact j.
-// The force law, its Jacobian and the implicit stage solves act on sites; stick,
-// slip, events and traces on contacts (their sites' mean velocity).
-struct FrictionSite {
-  int ix = 0, iy = 0;
-  std::int64_t node = 0;
-  double v_star = 0.0;  // [m/s]
-};
-
-// A stage solve that did not converge (a step too large for the contacts'
-// stage equations): the integrator may retry with a smaller step. Any other
-// exception from a stage solve is a bug and stops the run with its message.
-struct StageNotConverged : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
 struct EnergyTerms {
   double kinetic = 0.0;  // Σ m|w|²/2
   double elastic = 0.0;  // U of §3
@@ -89,16 +65,6 @@ class System {
   int nx() const { return nx_; }
   int ny() const { return ny_; }
   int nz() const { return nz_; }
-  // OpenMP threads for the loops of a run ([solver] threads, resolved).
-  int threads() const { return threads_; }
-  // The threads its loops use now: threads(), unless the run found that they
-  // do not get their cores (ThreadGovernor, run/thread_governor.hpp) and
-  // lowered it for a while. The machine's load, not the physics: results do
-  // not depend on it (parallel_for), so it may change between any two steps.
-  int loop_threads() const { return loop_threads_; }
-  void set_loop_threads(int threads) const {
-    loop_threads_ = threads < 1 ? 1 : threads > threads_ ? threads_ : threads;
-  }
   std::int64_t num_nodes() const { return n_; }
   std::int64_t size() const { return 6 * n_ + kQuadratures; }
   std::int64_t node(int ix, int iy, int iz) const {
@@ -111,53 +77,43 @@ class System {
   // "u^x of node (3, 4, 0)" for state index i, for diagnostics.
   std::string describe_component(std::int64_t i) const;
 
-  const std::vector<Contact>& contacts() const { return contacts_; }
-  int patch() const { return patch_; }  // R
-  const std::vector<FrictionSite>& sites() const { return sites_; }
-  // Contact i's sites.
-  std::span<const FrictionSite> sites_of(std::size_t i) const {
-    const std::size_t per = std::size_t(patch_) * patch_;
-    return std::span(sites_).subspan(i * per, per);
-  }
+  // The friction interface: the contacts, their sites, the law and what is
+  // decided per site or contact (model/contacts.hpp).
+  const ContactSet& contact_set() const { return contact_set_; }
+  // forwards to ContactSet::contacts
+  const std::vector<Contact>& contacts() const { return contact_set_.contacts(); }
+  // forwards to ContactSet::patch
+  int patch() const { return contact_set_.patch(); }  // R
+  // forwards to ContactSet::sites
+  const std::vector<FrictionSite>& sites() const { return contact_set_.sites(); }
 
   // y at t = 0: at rest, or sliding (w^x = v everywhere); quadratures zero.
   void initial_state(InitialState initial, std::span<double> y) const;
 
   // f = f_explicit + f_implicit. The implicit part is the contact forces (on
-  // the contacts' in-plane velocities); everything else is explicit.
-  void rhs(double t, std::span<const double> y, std::span<double> ydot) const;
-  void rhs_explicit(double t, std::span<const double> y, std::span<double> ydot) const;
+  // the contacts' in-plane velocities); everything else is explicit. The
+  // lattice's forces go to `threads` OpenMP threads (the run's budget,
+  // ThreadBudget::now(), model/parallel_for.hpp); results do not depend on it.
+  void rhs(double t, std::span<const double> y, std::span<double> ydot, int threads = 1) const;
+  void rhs_explicit(double t, std::span<const double> y, std::span<double> ydot,
+                    int threads = 1) const;
   void rhs_implicit(double t, std::span<const double> y, std::span<double> ydot) const;
 
-  // Solves the implicit stage equation of IMEX methods, z − γ f_implicit(z) = b,
-  // exactly. f_implicit touches only the contacts' in-plane velocities, each
-  // depending on its own, so every other component is z = b and each contact
-  // is a scalar equation for its speed (see the .cpp). z holds b on entry and
-  // the solution on return, so only the contacts' entries are touched: the
-  // caller forms b in place, one pass over the state. The predictor picks among
-  // several roots. Returns the number of scalar Newton iterations; throws
-  // StageNotConverged if one gives a speed that is not finite. Per site: a
-  // patch's sites are independent here (their coupling is the lattice's,
-  // explicit in imex).
-  long solve_implicit_stage(double gamma, std::span<const double> predictor,
-                            std::span<double> z) const;
-
-  // Site j's stage equation s − γ a_c(s) = b, solved exactly as
-  // solve_implicit_stage does for every site; `predictor_speed` picks among
-  // several roots. ∂s/∂b is bounded (‖∂s/∂b‖ ≤ 1 where the force rises with
-  // speed) even where a_c's own derivative reaches 1e15 s⁻¹, which is what
-  // makes it the variable a coupled stage solve can run Newton on.
+  // Site j's stage equation s − γ a_c(s) = b, solved exactly by the law
+  // (ContactSet::site_stage). forwards to ContactSet::site_stage
   ContactStage site_stage(std::size_t j, double gamma, std::array<double, 2> b,
-                          double predictor_speed, bool derivative) const;
+                          double predictor_speed, bool derivative) const {
+    return contact_set_.site_stage(j, gamma, b, predictor_speed, derivative);
+  }
 
   // The lattice's accelerations (elastic faces and cells, damping, drive
   // springs and dashpots to the plate; MODEL.md §3–5) at time t for
   // displacements u and velocities w (3N values each), into acc (3N). Affine
   // in (u, w); without the contacts. Solvers that exploit the lattice's
   // structure read its operator from here (by probing), never from a copy of
-  // the stencil.
+  // the stencil. On `threads` OpenMP threads, with the same result for any.
   void lattice_accelerations(double t, std::span<const double> u, std::span<const double> w,
-                             std::span<double> acc) const;
+                             std::span<double> acc, int threads = 1) const;
 
   // The quadratures' rates at (t, y), in Quadrature's order: P_in, D and F_f
   // (§7, §8); they depend on u and w only. f's last three rows.
@@ -170,8 +126,6 @@ class System {
   // Refills the values of a matrix built by jacobian_pattern at y: only the
   // contact blocks depend on the state.
   void jacobian_values(std::span<const double> y, SparseJacobian& jac) const;
-  // ∂a/∂s of site j (2×2, row-major, a = F/m, s its in-plane velocity).
-  std::array<double, 4> site_block(std::size_t j, std::span<const double> y) const;
 
   // Observables.
   double friction_force(double t, std::span<const double> y) const;  // F_f of §5 [N]
@@ -185,48 +139,41 @@ class System {
   // Relative energy-audit residual [ΔE − ∫(P_in − D)] / ∫ P_in (§8), from y(t)
   // and the state it started from.
   double energy_residual(double t, std::span<const double> y, std::span<const double> y0) const;
-  // Contact i's in-plane velocity: the mean of its sites' (§14).
-  std::array<double, 2> contact_velocity(std::size_t i, std::span<const double> y) const;
-  // |s| of contact i, the speed its stick and slip are decided on (§9) [m/s].
-  double contact_speed(std::size_t i, std::span<const double> y) const;
-  // Contact i's in-plane displacement: the mean of its sites' (u_x, u_y) [m].
-  std::array<double, 2> contact_displacement(std::size_t i, std::span<const double> y) const;
-  // |F| of the in-plane force the block exerts on contact i: the springs and
-  // dashpots on its sites' nodes (MODEL.md §3–5), summed over its sites (so
-  // those between two of its sites cancel), from the lattice's accelerations
-  // `acc` (3N values: lattice_accelerations at the state) [N]. The load the
-  // contact's friction holds while it sticks; its own force is contact_force.
-  double contact_load(std::size_t i, std::span<const double> acc) const;
-  // a_c of §6 (force per mass) of site j at in-plane velocity s.
-  std::array<double, 2> site_acceleration(std::size_t j, std::array<double, 2> s) const;
-
-  // Stick/slip root functions (MODEL.md §9): g_k = |s_c| − κ v*_c for each
-  // watched contact c = watched[k], s_c its velocity; positive while it slips.
+  // Per site and per contact (ContactSet, model/contacts.hpp):
+  // forwards to ContactSet::contact_speed
+  double contact_speed(std::size_t i, std::span<const double> y) const {
+    return contact_set_.contact_speed(i, y);
+  }
+  // forwards to ContactSet::site_acceleration
+  std::array<double, 2> site_acceleration(std::size_t j, std::array<double, 2> s) const {
+    return contact_set_.site_acceleration(j, s);
+  }
+  // forwards to ContactSet::stick_slip_roots
   void stick_slip_roots(std::span<const double> y, std::span<const int> watched,
-                        std::span<double> g) const;
-  bool slipping(std::size_t i, std::span<const double> y) const;
-  double slip_threshold() const { return slip_threshold_; }  // κ of §9
-  // The fastest growth rate of a site on the weakening branch, λ = −d|a_c|/d|s|
-  // where the contact force falls with speed (past v*), 0 if none is [1/s].
-  // A step with h λ ≫ 1 lets an L-stable method damp a slip's growth, and the
-  // error estimate, built from two damped answers, cannot see it (steps.csv).
-  double weakening_rate(std::span<const double> y) const;
-  // The same for site j alone, at in-plane velocity s [1/s].
-  double site_weakening_rate(std::size_t j, std::array<double, 2> s) const;
-  // How fast site j's own law damps a change of its velocity at s: the
-  // smaller of −∂a/∂|s| along ŝ and −a's tangential slope; negative past
-  // the peak (where it weakens) [1/s].
-  double site_damping_rate(std::size_t j, std::array<double, 2> s) const;
-  // |F_contact| of contact i, the sum over its sites [N].
-  double contact_force(std::size_t i, std::span<const double> y) const;
+                        std::span<double> g) const {
+    contact_set_.stick_slip_roots(y, watched, g);
+  }
+  // forwards to ContactSet::stick_slip_root (the law's root at a given speed)
+  double stick_slip_root(std::size_t i, double speed) const {
+    return contact_set_.stick_slip_root(i, speed);
+  }
+  // forwards to ContactSet::slipping
+  bool slipping(std::size_t i, std::span<const double> y) const {
+    return contact_set_.slipping(i, y);
+  }
+  // forwards to ContactSet::slip_threshold
+  double slip_threshold() const { return contact_set_.slip_threshold(); }
+  // forwards to ContactSet::site_weakening_rate
+  double site_weakening_rate(std::size_t j, std::array<double, 2> s) const {
+    return contact_set_.site_weakening_rate(j, s);
+  }
+  // forwards to ContactSet::site_damping_rate
+  double site_damping_rate(std::size_t j, std::array<double, 2> s) const {
+    return contact_set_.site_damping_rate(j, s);
+  }
 
   // The block's centre-of-mass x-velocity (all nodes have the same mass) [m/s].
   double block_velocity(std::span<const double> y) const;
-  // The x component of the total contact force Σ_c F_contact,c (§6) at the
-  // contacts' velocities in y [N]. Where a contact sticks, its force changes
-  // by ~1e15 m per m/s of speed, far below the velocity tolerance: from an
-  // interpolated state it is noise. contact_impulse is not.
-  double total_contact_force(std::span<const double> y) const;
   // ∫₀ᵗ Σ_c F^x_contact,c dt' (+ the block's momentum at t = 0) from the
   // momentum balance: the lattice's internal forces cancel (periodic in x and
   // y), so d/dt Σ m w_x = F_drive,x + F_contact,x, and the drive's impulse is
@@ -253,13 +200,6 @@ class System {
   double contact_displacement() const { return contact_force_scale_ / k1_over_m_; }
 
  private:
-  void add_contact_accelerations(std::span<const double> y, std::span<double> ydot) const;
-  std::array<double, 2> site_velocity(std::size_t j, std::span<const double> y) const {
-    const std::int64_t wx = w_index(sites_[j].node, 0);
-    return {y[wx], y[wx + 1]};
-  }
-  double contact_dissipation(std::span<const double> y) const;
-
   // The lattice's springs and dashpots (MODEL.md §3, §5), described once:
   // the forces, the Jacobian, the dissipation and the energy all walk the
   // lattice through these, in this order (system.cpp). A new lattice term is
@@ -298,18 +238,12 @@ class System {
   std::int64_t n_;
   double a_, mass_, g1_, g2_;
   double k1_over_m_, k2_over_m_, kd_over_m_;  // [1/s²]
-  int threads_;                 // OpenMP threads of a run ([solver] threads, resolved)
-  mutable int loop_threads_;    // of those, what the loops use now (loop_threads)
-  double eta_, eta_c_;          // [1/s]
-  double v_;                    // drive velocity [m/s]
-  double contact_force_scale_;  // ε f0 / m [m/s²]
+  double eta_, eta_c_;                        // [1/s]
+  double v_;                                  // drive velocity [m/s]
+  double contact_force_scale_;                // ε f0 / m [m/s²]
   double normal_force_;
-  double mu_prefactor_;    // τ_f / P0
-  double slip_threshold_;  // κ
-  FrictionLaw law_;
-  std::vector<Contact> contacts_;
-  int patch_;                         // R
-  std::vector<FrictionSite> sites_;   // contact i's are [i R², (i + 1) R²)
+  double mu_prefactor_;               // τ_f / P0
+  ContactSet contact_set_;            // the contacts, their sites and law
   std::vector<int> x_next_, y_next_;  // periodic neighbour along +x, +y
 };
 
