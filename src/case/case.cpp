@@ -6,8 +6,6 @@
 #include <omp.h>
 #endif
 
-#include "stickslip/case/methods.hpp"
-
 namespace stickslip {
 
 const char* to_string(GradDiv g) {
@@ -38,16 +36,6 @@ const char* to_string(OutputFormat f) {
       return "hdf5";
   }
   return "?";
-}
-
-const char* to_string(Method m) {
-  if (m == Method::automatic) return "auto";
-  return method_info(m).name;
-}
-
-const char* to_string(LinearSolver s) {
-  if (s == LinearSolver::automatic) return "auto";
-  return linear_solver_info(s).name;
 }
 
 Method validated_as(Method requested) {

@@ -87,4 +87,14 @@ std::string integrator_text(Method m, LinearSolver s) {
   return text + ", each " + method.implicit + linear_solver_info(s).how;
 }
 
+const char* to_string(Method m) {
+  if (m == Method::automatic) return "auto";
+  return method_info(m).name;
+}
+
+const char* to_string(LinearSolver s) {
+  if (s == LinearSolver::automatic) return "auto";
+  return linear_solver_info(s).name;
+}
+
 }  // namespace stickslip

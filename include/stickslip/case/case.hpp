@@ -174,8 +174,6 @@ std::string to_toml(const Case& c);
 
 const char* to_string(GradDiv);
 const char* to_string(InitialState);
-const char* to_string(Method);
-const char* to_string(LinearSolver);
 const char* to_string(OutputFormat);
 
 // The method whose rules (fixed step, orders, linear solver) a case is

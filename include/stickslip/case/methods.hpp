@@ -63,6 +63,11 @@ struct LinearSolverInfo {
   const char* how;  // ", each <implicit> solved ..." in summary.json's "integrator"
 };
 
+// A method's and a linear solver's names in case files and summary.json
+// ("auto" for the automatic choices): their rows' names.
+const char* to_string(Method m);
+const char* to_string(LinearSolver s);
+
 // Every method, in the order of the case file's documentation ("auto" is not
 // one: it chooses one, integrate/make_integrator.hpp).
 std::span<const MethodInfo> methods();
