@@ -74,7 +74,7 @@ int main(int argc, char** argv) {
   const System system(c, place_contacts(c.lattice, c.interface));
   const Checkpoint ck = read_checkpoint(argv[2]);
   const double t0 = ck.t, t1 = t0 + std::stod(argv[3]);
-  const std::size_t nc = system.contacts().size();
+  const std::size_t nc = system.contact_set().contacts().size();
 
   IntegratorOptions options;
   for (std::size_t i = 0; i < nc; ++i) options.watched_contacts.push_back(static_cast<int>(i));

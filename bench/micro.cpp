@@ -193,7 +193,7 @@ void BM_implicit_stage(benchmark::State& state) {
   }
   state.counters["newton_per_stage"] =
       static_cast<double>(iterations) / static_cast<double>(state.iterations());
-  state.counters["contacts"] = static_cast<double>(f.system->contacts().size());
+  state.counters["contacts"] = static_cast<double>(f.system->contact_set().contacts().size());
   report_nodes(state, *f.system);
 }
 
@@ -215,7 +215,7 @@ void BM_implicit_stage_threads(benchmark::State& state) {
   }
   state.counters["newton_per_stage"] =
       static_cast<double>(iterations) / static_cast<double>(state.iterations());
-  state.counters["contacts"] = static_cast<double>(system.contacts().size());
+  state.counters["contacts"] = static_cast<double>(system.contact_set().contacts().size());
   report_nodes(state, system);
 }
 
@@ -256,7 +256,7 @@ void BM_dirk_stage(benchmark::State& state) {
   state.counters["steps"] = static_cast<double>(steps) / runs;
   state.counters["contact_lu"] = static_cast<double>(factorizations) / runs;
   state.counters["rhs_per_stage"] = seconds / static_cast<double>(stages) / rhs_seconds;
-  state.counters["contacts"] = static_cast<double>(f.system->contacts().size());
+  state.counters["contacts"] = static_cast<double>(f.system->contact_set().contacts().size());
 }
 
 BENCHMARK(BM_rhs)->Arg(15)->Arg(30)->Arg(60);

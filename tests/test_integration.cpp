@@ -52,8 +52,8 @@ TEST_CASE("implicit stage equation: the root next to the predictor, found from i
   // γ = 1e-6 s a |b| between h's local maximum and minimum has three roots.
   const Case c = two_contact_case();
   const System s = make_system(c);
-  const std::int64_t wx = s.w_index(s.sites()[0].node, 0);
-  const double v_star = s.sites()[0].v_star, gamma = 1e-6;
+  const std::int64_t wx = s.w_index(s.contact_set().sites()[0].node, 0);
+  const double v_star = s.contact_set().sites()[0].v_star, gamma = 1e-6;
   std::vector<double> y(static_cast<std::size_t>(s.size())), f(y.size());
   auto h = [&](double lambda) {
     y[wx] = lambda;
@@ -76,7 +76,7 @@ TEST_CASE("implicit stage equation: the root next to the predictor, found from i
   const double b_len = 0.5 * (values[top] + values[bottom]);
 
   auto solve = [&](double predictor_speed) {
-    return s.site_stage(0, gamma, {b_len, 0.0}, predictor_speed, false);
+    return s.contact_set().site_stage(0, gamma, {b_len, 0.0}, predictor_speed, false);
   };
   // The low root lies below h's maximum, the high one above its minimum.
   const ContactStage low = solve(0.9 * grid[top]), high = solve(1.1 * grid[bottom]);

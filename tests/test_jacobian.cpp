@@ -33,9 +33,9 @@ struct Fixture {
       y[i] = 1e-3 * d(gen);
     const double speeds[8][2] = {{5e-5, 2e-5},  {-8e-3, 1e-3}, {2e-2, -3e-2},  {3e-4, -1e-4},
                                  {-2e-4, 6e-5}, {1e-3, 4e-3},  {-9e-3, -2e-2}, {4e-5, 3e-5}};
-    for (std::size_t k = 0; k < system->sites().size(); ++k) {
-      y[system->w_index(system->sites()[k].node, 0)] = speeds[k][0];
-      y[system->w_index(system->sites()[k].node, 1)] = speeds[k][1];
+    for (std::size_t k = 0; k < system->contact_set().sites().size(); ++k) {
+      y[system->w_index(system->contact_set().sites()[k].node, 0)] = speeds[k][0];
+      y[system->w_index(system->contact_set().sites()[k].node, 1)] = speeds[k][1];
     }
   }
 };
@@ -75,7 +75,7 @@ double worst_entry_error(const System& s, const std::vector<double>& y, const Sp
     for (auto k = jac.row_start[r]; k < jac.row_start[r + 1]; ++k)
       terms[r] += std::abs(jac.value[k] * y[static_cast<std::size_t>(jac.column[k])]);
   std::vector<bool> nonlinear(rows, false);
-  for (const FrictionSite& site : s.sites())
+  for (const FrictionSite& site : s.contact_set().sites())
     for (int k = 0; k < 2; ++k) nonlinear[static_cast<std::size_t>(s.w_index(site.node, k))] = true;
   for (std::size_t j = 0; j < rows; ++j) {
     const double h = nonlinear[j]            ? 1e-7 * std::max(std::abs(y[j]), 1e-4)
@@ -135,8 +135,8 @@ TEST_CASE("full Jacobian matches finite differences", "[jacobian]") {
   // elastic terms (∂a/∂u) is caught.
   const std::int64_t n3 = 3 * s.num_nodes();
   std::vector<bool> contact_row(static_cast<std::size_t>(s.size()), false);
-  for (std::size_t c = 0; c < s.sites().size(); ++c)
-    for (int k = 0; k < 2; ++k) contact_row[s.w_index(s.sites()[c].node, k)] = true;
+  for (std::size_t c = 0; c < s.contact_set().sites().size(); ++c)
+    for (int k = 0; k < 2; ++k) contact_row[s.w_index(s.contact_set().sites()[c].node, k)] = true;
   const auto identity = perturbed(jac, [&](auto r, auto col) { return r < n3 && col >= n3; });
   const auto damping = perturbed(jac, [&](auto r, auto col) {
     return r >= n3 && r < 2 * n3 && col >= n3 && !contact_row[static_cast<std::size_t>(r)];
@@ -159,7 +159,7 @@ TEST_CASE("a single entry 0.1 % wrong fails the check at every kind and scale of
   // dashpot on the diagonal); contacts 0 and 1 sit at (0, 0) and (2, 1) of
   // the bottom layer.
   const std::int64_t mid = s.node(1, 1, 1), next = s.node(2, 1, 1), top = s.node(1, 1, 2);
-  const std::int64_t c0 = s.sites()[0].node, c1 = s.sites()[1].node;
+  const std::int64_t c0 = s.contact_set().sites()[0].node, c1 = s.contact_set().sites()[1].node;
   struct Entry {
     const char* what;
     std::int64_t row, column;
@@ -194,7 +194,8 @@ TEST_CASE("contact Jacobian matches finite differences of the implicit rhs", "[j
   const System& s = *f.system;
   auto jac = s.jacobian_pattern(JacobianPart::contacts);
   // Identity-free: the diagonal is present but zero, plus a 2×2 block per contact.
-  CHECK(jac.nonzeros() == s.size() + 2 * static_cast<std::int64_t>(s.contacts().size()));
+  CHECK(jac.nonzeros() ==
+        s.size() + 2 * static_cast<std::int64_t>(s.contact_set().contacts().size()));
   s.jacobian_values(f.y, jac);
   CHECK(worst_entry_error(s, f.y, jac,
                           [&](const auto& y, auto& out) { s.rhs_implicit(0.0, y, out); }) <= 1.0);
@@ -203,9 +204,10 @@ TEST_CASE("contact Jacobian matches finite differences of the implicit rhs", "[j
 TEST_CASE("with 2x2 patches, every site's block matches finite differences", "[jacobian]") {
   Fixture f(2);
   const System& s = *f.system;
-  REQUIRE(s.sites().size() == 8);
+  REQUIRE(s.contact_set().sites().size() == 8);
   auto contacts = s.jacobian_pattern(JacobianPart::contacts);
-  CHECK(contacts.nonzeros() == s.size() + 2 * static_cast<std::int64_t>(s.sites().size()));
+  CHECK(contacts.nonzeros() ==
+        s.size() + 2 * static_cast<std::int64_t>(s.contact_set().sites().size()));
   s.jacobian_values(f.y, contacts);
   CHECK(worst_entry_error(s, f.y, contacts,
                           [&](const auto& y, auto& out) { s.rhs_implicit(0.0, y, out); }) <= 1.0);
@@ -224,7 +226,7 @@ TEST_CASE(
   const auto rows = s.jacobian_pattern(JacobianPart::site_rows);
   REQUIRE(rows.size == full.size);
   std::vector<char> site_row(static_cast<std::size_t>(s.size()), 0);
-  for (const auto& site : s.sites())
+  for (const auto& site : s.contact_set().sites())
     for (int k = 0; k < 2; ++k) site_row[static_cast<std::size_t>(s.w_index(site.node, k))] = 1;
   for (std::int64_t r = 0; r < full.size; ++r) {
     const auto n = rows.row_start[r + 1] - rows.row_start[r];

@@ -355,9 +355,10 @@ TEST_CASE("a stage with contacts is solved exactly: a direct Newton step from it
       // Contacts from rest to fast slip; the predictor is b.
       std::vector<double> b = random_state(s, 11);
       const double speeds[3][2] = {{3e-9, 1e-9}, {-4e-3, 1e-3}, {5e-2, -2e-2}};
-      for (std::size_t k = 0; k < s.sites().size(); ++k) {  // a patch: each of its sites
-        b[s.w_index(s.sites()[k].node, 0)] = speeds[k % 3][0];
-        b[s.w_index(s.sites()[k].node, 1)] = speeds[k % 3][1];
+      for (std::size_t k = 0; k < s.contact_set().sites().size();
+           ++k) {  // a patch: each of its sites
+        b[s.w_index(s.contact_set().sites()[k].node, 0)] = speeds[k % 3][0];
+        b[s.w_index(s.contact_set().sites()[k].node, 1)] = speeds[k % 3][1];
       }
       std::vector<double> z = b;
       std::vector<double> weights(b.size());
@@ -372,7 +373,7 @@ TEST_CASE("a stage with contacts is solved exactly: a direct Newton step from it
       CHECK(direct_newton_change(s, t, gamma, b, z) < 1e-10);
       // The stage moved the first contact's speed (b held it at 3e-9 m/s):
       // the contacts' forces mattered, the test is not of a trivial stage.
-      const std::int64_t w0 = s.w_index(s.sites()[0].node, 0);
+      const std::int64_t w0 = s.w_index(s.contact_set().sites()[0].node, 0);
       CHECK(std::abs(z[w0] - b[w0]) > 1e3 * std::abs(b[w0]));
     }
   }
@@ -392,7 +393,7 @@ TEST_CASE(
   int refused = 0, solved = 0;
   for (double gamma : {1e-10, 1e-9, 3e-9, 1e-8, 1e-7, 1e-6, 1e-5}) {
     std::vector<double> b = random_state(s, 3);
-    b[s.w_index(s.sites()[0].node, 0)] = 9.5e-4;
+    b[s.w_index(s.contact_set().sites()[0].node, 0)] = 9.5e-4;
     const std::vector<double> weights(b.size(), 1e6);
     std::vector<double> free = b, z = b;
     unlimited.solve(1e-4, gamma, b, weights, free);
@@ -427,9 +428,9 @@ TEST_CASE("a stage with many contacts gives the same bits on 1, 2 and 3 threads"
                               LatticeStageSolver::ContactNewton::by_count, budget);
     std::vector<double> b = random_state(s, 5);
     const double speeds[3][2] = {{3e-9, 1e-9}, {-4e-3, 1e-3}, {5e-2, -2e-2}};
-    for (std::size_t k = 0; k < s.sites().size(); ++k) {
-      b[s.w_index(s.sites()[k].node, 0)] = speeds[k % 3][0];
-      b[s.w_index(s.sites()[k].node, 1)] = speeds[k % 3][1];
+    for (std::size_t k = 0; k < s.contact_set().sites().size(); ++k) {
+      b[s.w_index(s.contact_set().sites()[k].node, 0)] = speeds[k % 3][0];
+      b[s.w_index(s.contact_set().sites()[k].node, 1)] = speeds[k % 3][1];
     }
     std::vector<double> weights(b.size());
     for (std::size_t i = 0; i < b.size(); ++i) weights[i] = 1.0 / (1e-6 * std::abs(b[i]) + 1e-9);
@@ -497,10 +498,11 @@ TEST_CASE(
   long iterations = 0;
   for (std::size_t stage = 0; stage < std::size(gammas); ++stage) {
     std::vector<double> b = base;
-    for (std::size_t k = 0; k < s.sites().size(); ++k) {  // each contact's speed moves
+    for (std::size_t k = 0; k < s.contact_set().sites().size();
+         ++k) {  // each contact's speed moves
       const double scale = 1.0 + 0.05 * static_cast<double>((k + stage) % 5);
-      b[s.w_index(s.sites()[k].node, 0)] = scale * speeds[(k + stage / 2) % 3][0];
-      b[s.w_index(s.sites()[k].node, 1)] = scale * speeds[(k + stage / 2) % 3][1];
+      b[s.w_index(s.contact_set().sites()[k].node, 0)] = scale * speeds[(k + stage / 2) % 3][0];
+      b[s.w_index(s.contact_set().sites()[k].node, 1)] = scale * speeds[(k + stage / 2) % 3][1];
     }
     std::vector<double> weights(b.size());
     for (std::size_t i = 0; i < b.size(); ++i) weights[i] = 1.0 / (1e-6 * std::abs(b[i]) + 1e-9);
@@ -546,16 +548,16 @@ TEST_CASE(
   // contact acceleration given (its fast contacts'), in both solvers alike.
   const bool prescribed = GENERATE(false, true);
   if (prescribed)
-    for (std::size_t k = 0; k < s.sites().size(); k += 5)
+    for (std::size_t k = 0; k < s.contact_set().sites().size(); k += 5)
       for (auto* solver : {&dense, &matrix_free})
         solver->prescribe(k, {-3e2 * static_cast<double>(k % 3), 1e2});
   for (double gamma : {1e-7, 1e-6, 3e-6, 1e-5, 1e-4}) {
     // A creeping lattice: displacements ~1 nm, velocities ~1 µm/s.
     std::vector<double> b = random_state(s, 13);
     for (std::int64_t i = 0; i < 6 * s.num_nodes(); ++i) b[static_cast<std::size_t>(i)] *= 1e-3;
-    for (std::size_t k = 0; k < s.sites().size(); ++k) {
-      b[s.w_index(s.sites()[k].node, 0)] = speeds[k % 3][0];
-      b[s.w_index(s.sites()[k].node, 1)] = speeds[k % 3][1];
+    for (std::size_t k = 0; k < s.contact_set().sites().size(); ++k) {
+      b[s.w_index(s.contact_set().sites()[k].node, 0)] = speeds[k % 3][0];
+      b[s.w_index(s.contact_set().sites()[k].node, 1)] = speeds[k % 3][1];
     }
     std::vector<double> weights(b.size());
     for (std::size_t i = 0; i < b.size(); ++i) weights[i] = 1.0 / (1e-6 * std::abs(b[i]) + 1e-9);
@@ -568,9 +570,9 @@ TEST_CASE(
     // Each contact's speed within 1e-5 of its error weight's scale: ten
     // times the Newton tolerance, for J⁻¹ between residual and speed.
     double worst = 0.0;
-    for (std::size_t k = 0; k < s.sites().size(); ++k)
+    for (std::size_t k = 0; k < s.contact_set().sites().size(); ++k)
       for (int a = 0; a < 2; ++a) {
-        const auto i = static_cast<std::size_t>(s.w_index(s.sites()[k].node, a));
+        const auto i = static_cast<std::size_t>(s.w_index(s.contact_set().sites()[k].node, a));
         worst = std::max(worst, std::abs(z_free[i] - z_dense[i]) * weights[i]);
       }
     CHECK(worst < 1e-5);
@@ -603,7 +605,7 @@ TEST_CASE(
     solver.release_all();
     for (const std::size_t j : given) {
       const NodeCoupling& c = couplings[j];
-      const auto ux = static_cast<std::size_t>(s.u_index(s.sites()[j].node, 0));
+      const auto ux = static_cast<std::size_t>(s.u_index(s.contact_set().sites()[j].node, 0));
       solver.prescribe(j, {line[0] - c.stiffness * b[ux], line[1] - c.stiffness * b[ux + 1]},
                        -(c.damping + gamma * c.stiffness));
     }
@@ -612,8 +614,8 @@ TEST_CASE(
     INFO("gamma " << gamma);
     for (const std::size_t j : given) {
       const NodeCoupling& c = couplings[j];
-      const auto ux = static_cast<std::size_t>(s.u_index(s.sites()[j].node, 0));
-      const auto wx = static_cast<std::size_t>(s.w_index(s.sites()[j].node, 0));
+      const auto ux = static_cast<std::size_t>(s.u_index(s.contact_set().sites()[j].node, 0));
+      const auto wx = static_cast<std::size_t>(s.w_index(s.contact_set().sites()[j].node, 0));
       const auto phi = c.forcing(z.data());
       for (std::size_t k = 0; k < 2; ++k) {
         const double residual = z[wx + k] - b[wx + k] - gamma * (phi[k] + line[k]);
@@ -650,17 +652,17 @@ TEST_CASE(
   const double gammas[] = {1e-6, 3e-9, 5e-9, 8e-9, 1.2e-8, 2e-8, 1e-8, 4e-9};
   for (std::size_t stage = 0; stage < std::size(gammas); ++stage) {
     std::vector<double> b = base, start = base;
-    for (std::size_t k = 0; k < s.sites().size(); ++k) {
+    for (std::size_t k = 0; k < s.contact_set().sites().size(); ++k) {
       const double scale = 1.0 + 0.05 * static_cast<double>((k + stage) % 5);
       const double* speed = stage == 0 || k % 3 == 2 ? slipping : stuck;
       const std::array<double, 2> v{scale * speed[0], scale * speed[1]};
       // b such that the contact alone would end its stage at v: held by its
       // force, a stuck contact's b is far larger than its speed.
-      const auto a = s.site_acceleration(k, v);
-      b[s.w_index(s.sites()[k].node, 0)] = v[0] - gammas[stage] * a[0];
-      b[s.w_index(s.sites()[k].node, 1)] = v[1] - gammas[stage] * a[1];
-      start[s.w_index(s.sites()[k].node, 0)] = v[0];
-      start[s.w_index(s.sites()[k].node, 1)] = v[1];
+      const auto a = s.contact_set().site_acceleration(k, v);
+      b[s.w_index(s.contact_set().sites()[k].node, 0)] = v[0] - gammas[stage] * a[0];
+      b[s.w_index(s.contact_set().sites()[k].node, 1)] = v[1] - gammas[stage] * a[1];
+      start[s.w_index(s.contact_set().sites()[k].node, 0)] = v[0];
+      start[s.w_index(s.contact_set().sites()[k].node, 1)] = v[1];
     }
     std::vector<double> weights(b.size());
     for (std::size_t i = 0; i < b.size(); ++i)

@@ -214,11 +214,11 @@ TEST_CASE("a slip event agrees with the crossing of a dense fixed-step solution"
   std::vector<double> ts{t_before}, gs;
   std::vector<double> g(1), state = y_before;
   const int watched[1] = {0};
-  s.stick_slip_roots(state, watched, g);
+  s.contact_set().stick_slip_roots(state, watched, g);
   gs.push_back(g[0]);
   while (gs.back() < 0 && ts.back() < t_event + 1e-6) {
     ts.push_back(dense->advance(ts.back() + fixed.step, state));
-    s.stick_slip_roots(state, watched, g);
+    s.contact_set().stick_slip_roots(state, watched, g);
     gs.push_back(g[0]);
   }
   REQUIRE(gs.back() >= 0);
@@ -508,7 +508,7 @@ TEST_CASE(
   c.drive.velocity = 1e-3;
   auto choice_for = [](const Case& k) {
     const System s(k, place_contacts(k.lattice, k.interface));
-    return std::pair{choose_method(s, k.solver), s.contacts().size()};
+    return std::pair{choose_method(s, k.solver), s.contact_set().contacts().size()};
   };
   const auto [block, contacts] = choice_for(c);
   REQUIRE(contacts == 112);

@@ -68,7 +68,7 @@ TEST_CASE("every site of a patch carries the contact law, the patch moves at the
   c.interface.patch = 2;
   const double v_star = 4e-4;
   const System s(c, {{5, 5, v_star}, {2, 2, 2e-3}});  // the first wraps to (0, 0)
-  REQUIRE(s.sites().size() == 8);
+  REQUIRE(s.contact_set().sites().size() == 8);
   CHECK(s.coverage() == Approx(8.0 / 36).epsilon(1e-15));
   // F_N = ε θ P0 Nx Ny a² with θ = 8/36.
   const auto& i = c.interface;
@@ -94,13 +94,13 @@ TEST_CASE("every site of a patch carries the contact law, the patch moves at the
   // Stick/slip on the mean speed: 2.795e-4 < v*, though one site moves at 1e-3.
   double g = 0.0;
   const int watched[1] = {0};
-  s.stick_slip_roots(y, watched, std::span(&g, 1));
+  s.contact_set().stick_slip_roots(y, watched, std::span(&g, 1));
   CHECK(g == Approx(std::hypot(2.75e-4, -0.5e-4) - v_star).epsilon(1e-14));
-  CHECK_FALSE(s.slipping(0, y));
+  CHECK_FALSE(s.contact_set().slipping(0, y));
   // The same root from the contact's speed alone (how the multirate stepper
   // asks between its sub-steps), bit for bit; and the law's speed scale.
-  CHECK(s.stick_slip_root(0, s.contact_speed(0, y)) == g);
-  CHECK(s.stick_slip_root(0, 2 * v_star) == Approx(v_star).epsilon(1e-15));
+  CHECK(s.contact_set().stick_slip_root(0, s.contact_set().contact_speed(0, y)) == g);
+  CHECK(s.contact_set().stick_slip_root(0, 2 * v_star) == Approx(v_star).epsilon(1e-15));
   CHECK(s.contact_set().speed_scale(0) == v_star);
   CHECK(s.contact_set().speed_scale(1) == 2e-3);
 

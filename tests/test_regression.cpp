@@ -86,7 +86,7 @@ Observation observe(const Case& c, const SolverParams& solver) {
   const double t_end = c.run.t_end, t_avg = c.run.average_from;
   const auto integrator = make_integrator(s, solver, y, t_end, options);
   const std::int64_t impulse = s.quadrature_index(System::friction_impulse);
-  const std::int64_t ux = s.u_index(s.sites()[0].node, 0);
+  const std::int64_t ux = s.u_index(s.contact_set().sites()[0].node, 0);
   Observation o;
   double t = 0.0, impulse_at_avg = 0.0;
   bool slipping = false;
@@ -143,7 +143,7 @@ struct Loading {
 Loading quasi_static_loading(const System& s, std::size_t contact) {
   const std::int64_t n3 = 3 * s.num_nodes();
   const auto n = static_cast<std::size_t>(n3);
-  const auto held = static_cast<Eigen::Index>(s.u_index(s.sites()[contact].node, 0));
+  const auto held = static_cast<Eigen::Index>(s.u_index(s.contact_set().sites()[contact].node, 0));
   std::vector<double> u(n, 0.0), w(n, 0.0), acc(n);
   auto accelerations = [&](double t) {
     s.lattice_accelerations(t, u, w, acc);

@@ -67,12 +67,14 @@ struct AtEvent {
 };
 
 AtEvent at_event(const System& s, double t, int contact, int root, std::span<const double> y) {
-  const FrictionSite& site = s.sites()[static_cast<std::size_t>(contact)];  // patch = 1
+  const FrictionSite& site =
+      s.contact_set().sites()[static_cast<std::size_t>(contact)];  // patch = 1
   std::vector<double> ydot(y.size());
   s.rhs(t, y, ydot);
   const auto wx = static_cast<std::size_t>(s.w_index(site.node, 0));
   const auto ux = static_cast<std::size_t>(s.u_index(site.node, 0));
-  const auto a_c = s.site_acceleration(static_cast<std::size_t>(contact), {y[wx], y[wx + 1]});
+  const auto a_c =
+      s.contact_set().site_acceleration(static_cast<std::size_t>(contact), {y[wx], y[wx + 1]});
   return {t,
           contact,
           root > 0 ? EventKind::slip : EventKind::stick,
@@ -209,7 +211,8 @@ TEST_CASE("slips: the peak speed is the slip's maximum, from samples of the solu
         t = integrator->advance(target, y);
         for (std::size_t i = 0; i < slips.size(); ++i)
           if (t >= slips[i].t_start && t <= slips[i].t_end) {
-            const double speed = s.contact_speed(static_cast<std::size_t>(slips[i].contact), y);
+            const double speed =
+                s.contact_set().contact_speed(static_cast<std::size_t>(slips[i].contact), y);
             dense_max[i] = std::max(dense_max[i], speed);
             dense[i].emplace_back(t, speed);
           }

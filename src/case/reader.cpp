@@ -465,7 +465,7 @@ const std::vector<Entry>& schema() {
        "method = \"multirate\": the fewest fast contacts it steps on their own sub-steps, a lone "
        "one (at most one contact on the eight sites around it) counting 8, or the whole bar where "
        "most contacts are lone and they count it; with fewer, the whole step follows them (single "
-       "rate); after a step with contacts apart, an eighth as many"},
+       "rate); after a step with contacts apart, 1/8 as many"},
       {"solver", "audit_bound", real(&Case::solver, &SolverParams::audit_bound, kPositive), "",
        "largest accepted |energy-audit residual| at t_end, beyond which the run fails; unset: 100 "
        "× rtol, or 1e-4 for a fixed step"},
@@ -781,8 +781,8 @@ void check_consistency(const Reader& r, const Case& c) {
     if (nodes < m.min_nodes)
       r.fail_first({{key, "must be >= " + least + " with method = " + name + ", got " +
                               std::to_string(nodes)},
-                    {"solver.method", name + " needs a lattice of at least " + least + "x" +
-                                          least + "x" + least + " nodes"}});
+                    {"solver.method", name + " needs a lattice of at least " + least + "x" + least +
+                                          "x" + least + " nodes"}});
   if (s.order != 0 && (s.order < m.min_order || s.order > m.max_order))
     r.fail_first({{"solver.order", "must be 0 (default) or in [" + std::to_string(m.min_order) +
                                        ", " + std::to_string(m.max_order) + "] for method = " +

@@ -49,8 +49,8 @@ std::vector<NodeCoupling> node_couplings(const System& system) {
   if (system.nz() < 2)
     throw std::invalid_argument("a one-layer lattice: its contact nodes are driven");
   std::vector<NodeCoupling> out;
-  out.reserve(system.sites().size());
-  for (const FrictionSite& site : system.sites()) {
+  out.reserve(system.contact_set().sites().size());
+  for (const FrictionSite& site : system.contact_set().sites()) {
     NodeCoupling c;
     std::array<std::array<double, 2>, 2> k{}, d{};  // own blocks ∂a/∂u, ∂a/∂w (rows x, y)
     for (int r = 0; r < 2; ++r) {
@@ -201,8 +201,8 @@ bool ContactSubsteps::stages(std::size_t j, const NodeCoupling& coupling, const 
     const std::array<double, 2> r{b[2] + gamma * (phi[0] + K * b[0]),
                                   b[3] + gamma * (phi[1] + K * b[1])};
     const double predictor = std::hypot(z[i - 1][2], z[i - 1][3]);
-    const ContactStage st =
-        system_.site_stage(j, gamma / alpha, {r[0] / alpha, r[1] / alpha}, predictor, false);
+    const ContactStage st = system_.contact_set().site_stage(
+        j, gamma / alpha, {r[0] / alpha, r[1] / alpha}, predictor, false);
     z[i] = {b[0] + gamma * st.s[0], b[1] + gamma * st.s[1], st.s[0], st.s[1]};
     for (int k = 0; k < 4; ++k) f[i][k] = (z[i][k] - b[k]) / gamma;
     // a_c as the stage equation has it (not the law at z: near rest that
@@ -211,7 +211,7 @@ bool ContactSubsteps::stages(std::size_t j, const NodeCoupling& coupling, const 
              f[i][3] - phi[1] - K * z[i][1] - C * z[i][3]};
     // As the coarse stages (lattice_stage_solver.cpp): past γλ = 1 the
     // stage damps a slip's growth where the error estimate cannot see it.
-    if (gamma * system_.site_weakening_rate(j, st.s) > 1.0) return false;
+    if (gamma * system_.contact_set().site_weakening_rate(j, st.s) > 1.0) return false;
   }
   return true;
 }
@@ -255,10 +255,12 @@ SubstepResult ContactSubsteps::advance(std::size_t j, const NodeCoupling& coupli
   double h = std::min(h_try, H);
   while (tau < H) {
     if (out.substeps + out.rejected > kMaxSubsteps || !(h > 1e-18))
-      throw StageNotConverged(
-          "contact site " + std::to_string(j) + "'s sub-steps did not get through the coarse step (" +
-          (!(h > 1e-18) ? "the sub-step fell below 1e-18 s" : "more than " + std::to_string(kMaxSubsteps) + " sub-steps") +
-          " at " + std::to_string(tau / H) + " of it)");
+      throw StageNotConverged("contact site " + std::to_string(j) +
+                              "'s sub-steps did not get through the coarse step (" +
+                              (!(h > 1e-18)
+                                   ? "the sub-step fell below 1e-18 s"
+                                   : "more than " + std::to_string(kMaxSubsteps) + " sub-steps") +
+                              " at " + std::to_string(tau / H) + " of it)");
     // The last sub-step lands on H; one just short of it is stretched.
     if (tau + h >= H || H - (tau + h) < 1e-3 * h) h = H - tau;
     z[0] = x;

@@ -40,14 +40,14 @@ LatticeStageSolver::LatticeStageSolver(const System& system, double max_gamma_la
       threads_(threads),
       lattice_(system, std::move(threads)),
       nodes_(system.num_nodes()),
-      sites_(system.sites().size()),
+      sites_(system.contact_set().sites().size()),
       nx_(system.nx()),
       ny_(system.ny()),
       matrix_free_(contact_newton == ContactNewton::matrix_free ||
                    (contact_newton == ContactNewton::by_count && !uses_dense_lu(sites_))),
       zero_(static_cast<std::size_t>(3 * nodes_), 0.0),
       acc_(zero_.size()) {
-  const auto& sites = system.sites();
+  const auto& sites = system.contact_set().sites();
   for (std::size_t i = 0; i < sites_; ++i) site_w_.push_back(system.w_index(sites[i].node, 0));
   for (const auto& site : sites) {
     site_ix_.push_back(site.ix);
@@ -164,7 +164,7 @@ long LatticeStageSolver::solve(double t, double gamma, std::span<const double> p
   auto rates = system_.quadrature_rates(t, z);
   for (const std::size_t j : prescribed_sites_) {  // −m a_c·s of their law, left out
     const std::array<double, 2> s{z[site_w_[j]], z[site_w_[j] + 1]};
-    const auto a = system_.site_acceleration(j, s);
+    const auto a = system_.contact_set().site_acceleration(j, s);
     rates[System::dissipated] += system_.mass() * (a[0] * s[0] + a[1] * s[1]);
   }
   const auto first = static_cast<std::size_t>(system_.quadrature_index(System::work_in));
@@ -179,7 +179,7 @@ long LatticeStageSolver::solve(double t, double gamma, std::span<const double> p
   // 5e-4 s ending at h λ = 5 448, and a pair at rtol 1e-2 over its slips.
   for (std::size_t j = 0; j < sites_; ++j)
     if (!prescribed_[j] &&
-        gamma * system_.site_weakening_rate(j, {z[site_w_[j]], z[site_w_[j] + 1]}) >
+        gamma * system_.contact_set().site_weakening_rate(j, {z[site_w_[j]], z[site_w_[j] + 1]}) >
             max_gamma_lambda_)
       refused_sites_.push_back(j);
   if (!refused_sites_.empty())
@@ -549,8 +549,8 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
       sigma_(2 * i + 1) = stages_[i].s[1];
       return;
     }
-    stages_[i] = system_.site_stage(i, gamma_self, {beta(2 * i), beta(2 * i + 1)},
-                                    predicted_speed_[i], true);
+    stages_[i] = system_.contact_set().site_stage(i, gamma_self, {beta(2 * i), beta(2 * i + 1)},
+                                                  predicted_speed_[i], true);
     sigma_(2 * i) = stages_[i].s[0];
     sigma_(2 * i + 1) = stages_[i].s[1];
   };
@@ -584,7 +584,7 @@ long LatticeStageSolver::solve_contacts(std::span<const double> predictor,
         prescribed_[i]
             ? std::array<double, 2>{prescribed_acceleration_[i][0] + prescribed_rate_[i] * s[0],
                                     prescribed_acceleration_[i][1] + prescribed_rate_[i] * s[1]}
-            : system_.site_acceleration(i, s);
+            : system_.contact_set().site_acceleration(i, s);
     trial_(2 * i) = gamma_self * a[0];
     trial_(2 * i + 1) = gamma_self * a[1];
   }

@@ -18,7 +18,8 @@ MethodChoice choose_method(const System& system, const SolverParams& solver) {
             "method = \"auto\" with a fixed step: imex, the cheapest fixed-step "
             "method (docs/PERFORMANCE.md)"};
   std::size_t weak = 0;  // contacts that stick-slip at the drive speed: their law's
-  for (std::size_t i = 0; i < system.contacts().size(); ++i)  // speed scale is below it
+  for (std::size_t i = 0; i < system.contact_set().contacts().size();
+       ++i)  // speed scale is below it
     if (system.contact_set().speed_scale(i) < system.drive_velocity()) ++weak;
   // bdf rather than dirk: on the 30 points of Fig. 7 at v = 3e-4 both agree
   // to 2.4e-6 in μ, bdf took 1-7 s on each, dirk up to 54 s and stalled on
@@ -42,8 +43,9 @@ MethodChoice choose_method(const System& system, const SolverParams& solver) {
   // contacts) multirate, each lone slip apart, took 1.3x less time than dirk
   // at rtol 1e-5 but was 68x further from a converged run in mu, and at
   // equal accuracy was no faster (docs/PERFORMANCE.md, "Multirate").
-  const std::size_t contacts = system.contacts().size();
-  if (system.patch() == 1 && contacts >= static_cast<std::size_t>(solver.multirate_min_fast))
+  const std::size_t contacts = system.contact_set().contacts().size();
+  if (system.contact_set().patch() == 1 &&
+      contacts >= static_cast<std::size_t>(solver.multirate_min_fast))
     return {Method::multirate,
             "method = \"auto\": multirate, since " + std::to_string(weak) + " of " +
                 std::to_string(contacts) +

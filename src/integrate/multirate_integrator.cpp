@@ -92,10 +92,10 @@ namespace {
 
 // The state index of site j's u_x and w_x.
 std::int64_t u_of(const System& s, std::size_t j) {
-  return s.u_index(s.sites()[j].node, 0);
+  return s.u_index(s.contact_set().sites()[j].node, 0);
 }
 std::int64_t w_of(const System& s, std::size_t j) {
-  return s.w_index(s.sites()[j].node, 0);
+  return s.w_index(s.contact_set().sites()[j].node, 0);
 }
 
 std::int64_t largest(std::span<const double> v) {
@@ -124,7 +124,8 @@ MultirateIntegrator::MultirateIntegrator(const System& system, const SolverParam
       // sites) the dense LU's solves and factorizations took 77 % of a
       // block slip's time and the matrix-free steps went twice as fast
       // (docs/PERFORMANCE.md, "Multirate at 60x60").
-      stages_(system, LatticeStageSolver::kMaxGammaLambda),
+      stages_(system, LatticeStageSolver::kMaxGammaLambda,
+              LatticeStageSolver::ContactNewton::by_count, options_.threads),
       partition_(system, solver.multirate_min_fast),
       n_(y0.size()),
       t_stop_(t_stop),
@@ -132,29 +133,29 @@ MultirateIntegrator::MultirateIntegrator(const System& system, const SolverParam
       t_(t0),
       y_(y0.begin(), y0.end()),
       lattice_f_(n_),
-      contact_a_(system.sites().size()),
+      contact_a_(system.contact_set().sites().size()),
       h_(0.0),
-      substep_(system.sites().size(), 0.0),
+      substep_(system.contact_set().sites().size(), 0.0),
       t_reached_(t0),
       b_(n_),
       weights_(n_),
       error_(n_),
       f_(static_cast<std::size_t>(table_.stages), std::vector<double>(n_)),
       z_(static_cast<std::size_t>(table_.stages), std::vector<double>(n_)) {
-  if (system.patch() != 1)
+  if (system.contact_set().patch() != 1)
     throw std::invalid_argument("method = \"multirate\" steps single-site contacts (patch = 1)");
   // At the start a_c is the law's: the one time it is evaluated at a state
   // rather than taken from a stage (as ARKStep's first f for dirk).
   for (std::size_t j = 0; j < contact_a_.size(); ++j) {
     const auto wx = w_of(system_, j);
-    contact_a_[j] = system_.site_acceleration(j, {y_[wx], y_[wx + 1]});
+    contact_a_[j] = system_.contact_set().site_acceleration(j, {y_[wx], y_[wx + 1]});
   }
   begin_step_derivative();
   roots_.assign(options_.watched_contacts.size(), 0);
   peaks_ = SpeedPeaks(roots_.size());
   sign_.resize(roots_.size());
   std::vector<double> g(roots_.size());
-  system_.stick_slip_roots(y_, options_.watched_contacts, g);
+  system_.contact_set().stick_slip_roots(y_, options_.watched_contacts, g);
   for (std::size_t k = 0; k < g.size(); ++k) sign_[k] = g[k] > 0.0 ? 1 : -1;
   // The first step: small against any time scale of the model (the contacts'
   // own ~1e-9 s near their peak); the controller grows it 5× a step.
@@ -166,7 +167,7 @@ MultirateIntegrator::~MultirateIntegrator() = default;
 // The lattice's part of f at (t_, y_): u' = w, a_L, and the quadratures' rates
 // without the contacts' dissipation (added per site, with the a_c the step uses).
 void MultirateIntegrator::begin_step_derivative() {
-  system_.rhs_explicit(t_, y_, lattice_f_);
+  system_.rhs_explicit(t_, y_, lattice_f_, loop_threads(options_));
   lattice_f_[system_.quadrature_index(System::dissipated)] = system_.lattice_dissipation(y_);
   ++stats_.rhs_explicit;
 }
@@ -265,7 +266,8 @@ MultirateIntegrator::Coupling MultirateIntegrator::couple(
   const std::int64_t layer = std::int64_t{system_.nx()} * system_.ny();
   std::vector<long> fast_at(static_cast<std::size_t>(layer), -1);
   for (std::size_t q = 0; q < nf; ++q)
-    fast_at[static_cast<std::size_t>(system_.sites()[fast[q]].node)] = static_cast<long>(q);
+    fast_at[static_cast<std::size_t>(system_.contact_set().sites()[fast[q]].node)] =
+        static_cast<long>(q);
   const auto N3 = 3 * system_.num_nodes();
   for (std::size_t q = 0; q < nf; ++q) {
     const NodeCoupling& c = couplings_[fast[q]];
@@ -276,9 +278,8 @@ MultirateIntegrator::Coupling MultirateIntegrator::couple(
         const std::int64_t index = velocity ? col - N3 : col;  // 3 node + axis
         const std::int64_t node = index / 3;
         const int axis = static_cast<int>(index % 3);
-        const long other = col < 2 * N3 && axis < 2 && node < layer
-                               ? fast_at[static_cast<std::size_t>(node)]
-                               : -1;
+        const long other =
+            col < 2 * N3 && axis < 2 && node < layer ? fast_at[static_cast<std::size_t>(node)] : -1;
         if (other >= 0)
           out.fast[q].push_back(
               {k, c.value[k][e], static_cast<std::size_t>(other), (velocity ? 2 : 0) + axis});
@@ -415,8 +416,8 @@ std::optional<MultirateIntegrator::Outcome> MultirateIntegrator::coarse_stages(A
       const NodeCoupling& c = couplings_[j];
       std::array<double, 2> p{};
       for (int k = 0; k < 2; ++k)
-        p[k] = st.line0[q][k] + st.line1[q][k] * tau -
-               (a.cancel_own ? c.stiffness * b_[ux + k] : 0.0);
+        p[k] =
+            st.line0[q][k] + st.line1[q][k] * tau - (a.cancel_own ? c.stiffness * b_[ux + k] : 0.0);
       stages_.prescribe(j, p, a.cancel_own ? -(c.damping + gamma * c.stiffness) : 0.0);
     }
     auto& z = z_[static_cast<std::size_t>(i)];
@@ -431,10 +432,11 @@ std::optional<MultirateIntegrator::Outcome> MultirateIntegrator::coarse_stages(A
       if (!refused.empty()) {  // those contacts turn fast
         for (const std::size_t j : refused) partition_.hold_fast(j);
         a.worst = w_of(system_, refused.front());
-        auto fast = partition_.fast_contacts(H, y_, lattice_f_, contact_a_,
-                                             step_ && !step_->fast.empty());
+        auto fast =
+            partition_.fast_contacts(H, y_, lattice_f_, contact_a_, step_ && !step_->fast.empty());
         if (!fast.empty())
-          return Outcome{AttemptRecord::Verdict::retry_refused_stage, e.what(), std::move(fast), {}};
+          return Outcome{
+              AttemptRecord::Verdict::retry_refused_stage, e.what(), std::move(fast), {}};
       }
       ++stats_.convergence_failures;
       return Outcome{AttemptRecord::Verdict::shrink_stage, e.what(), {}, {}};
@@ -470,13 +472,13 @@ std::optional<MultirateIntegrator::Outcome> MultirateIntegrator::check_error(Att
     }
   }
   if (turned) {
-    auto fast = partition_.fast_contacts(a.H, y_, lattice_f_, contact_a_,
-                                         step_ && !step_->fast.empty());
+    auto fast =
+        partition_.fast_contacts(a.H, y_, lattice_f_, contact_a_, step_ && !step_->fast.empty());
     if (!fast.empty()) {
       if (options_.on_attempt) a.worst = largest(error_);
       auto forcing = forcing_through_stages(fast, a.H);
-      return Outcome{AttemptRecord::Verdict::retry_turned_fast, {}, std::move(fast),
-                     std::move(forcing)};
+      return Outcome{
+          AttemptRecord::Verdict::retry_turned_fast, {}, std::move(fast), std::move(forcing)};
     }
     // Too few to step apart: the step is single rate, and its contacts
     // are held to the coarse norm like dirk's. Held to 1 each, they made
@@ -492,8 +494,8 @@ std::optional<MultirateIntegrator::Outcome> MultirateIntegrator::check_error(Att
   st.error = std::sqrt(sum / static_cast<double>(n_ - 4 * st.fast.size()));
   if (options_.on_attempt) a.worst = largest(error_);
   if (!(st.error <= 1.0))
-    return Outcome{AttemptRecord::Verdict::shrink_error, "the coarse error estimate exceeded 1",
-                   {}, {}};
+    return Outcome{
+        AttemptRecord::Verdict::shrink_error, "the coarse error estimate exceeded 1", {}, {}};
   return std::nullopt;
 }
 
@@ -537,7 +539,8 @@ std::optional<MultirateIntegrator::Outcome> MultirateIntegrator::hand_back(Attem
     a.next_forcing[q] = forcing_from(a, q, current);
     double memory = 0.0;
     for (const SubstepPoint& p : current[q].points) {
-      const double rate = system_.site_damping_rate(j, {p.x[2], p.x[3]}) - couplings_[j].damping;
+      const double rate =
+          system_.contact_set().site_damping_rate(j, {p.x[2], p.x[3]}) - couplings_[j].damping;
       memory = std::max(memory, rate > 0.0 ? std::min(H, 1.0 / rate) : H);
     }
     auto compare = [&](double tau) {
@@ -558,7 +561,9 @@ std::optional<MultirateIntegrator::Outcome> MultirateIntegrator::hand_back(Attem
       st.error = miss;
       a.worst = worst_miss;
       return Outcome{AttemptRecord::Verdict::shrink_miss,
-                     "a stand-in's displacement missed its sub-steps' end", {}, {}};
+                     "a stand-in's displacement missed its sub-steps' end",
+                     {},
+                     {}};
     }
     st.miss = miss;
     st.error = std::max(st.error, miss);
@@ -658,7 +663,7 @@ void MultirateIntegrator::sample_speeds() {
   for (std::size_t k = 0; k < roots_.size(); ++k) {
     const auto c = static_cast<std::size_t>(options_.watched_contacts[k]);  // = its site
     if (fast_index[c] < 0) {
-      peaks_.sample(k, t_, system_.contact_speed(c, y_));
+      peaks_.sample(k, t_, system_.contact_set().contact_speed(c, y_));
       continue;
     }
     for (const SubstepPoint& p : st.fine[static_cast<std::size_t>(fast_index[c])].points)
@@ -675,7 +680,7 @@ void MultirateIntegrator::record(double error) {
   for (std::size_t j = 0; j < contact_a_.size(); ++j) {
     if (is_fast[j]) continue;
     const auto wx = w_of(system_, j);
-    rate = std::max(rate, system_.site_weakening_rate(j, {y_[wx], y_[wx + 1]}));
+    rate = std::max(rate, system_.contact_set().site_weakening_rate(j, {y_[wx], y_[wx + 1]}));
   }
   StepRecord r{t_, step_->H, error, step_->H * rate};
   long substeps = 0;
@@ -711,10 +716,9 @@ void MultirateIntegrator::interpolate(double t, std::span<double> y) const {
 bool MultirateIntegrator::next_root(double t_from, double t_to, double& t_root) {
   if (roots_.empty() || !step_ || !(t_to > t_from)) return false;
   const Step& st = *step_;
-  const double kappa = system_.slip_threshold();
   std::vector<long> fast_index(contact_a_.size(), -1);
   for (std::size_t q = 0; q < st.fast.size(); ++q) fast_index[st.fast[q]] = static_cast<long>(q);
-  // Watched contact k's g = |s| − κ v* at t in the step (patch = 1: contact
+  // Watched contact k's stick/slip root (the law's) at t in the step (patch = 1: contact
   // c is site c); its speed is a sample for peaks_.
   auto g = [&](std::size_t k, double t) {
     const auto c = static_cast<std::size_t>(options_.watched_contacts[k]);
@@ -736,7 +740,7 @@ bool MultirateIntegrator::next_root(double t_from, double t_to, double& t_root) 
     ++stats_.root_evaluations;
     const double speed = std::hypot(s[0], s[1]);
     peaks_.sample(k, t, speed);
-    return speed - kappa * system_.contacts()[c].v_star;
+    return system_.contact_set().stick_slip_root(c, speed);
   };
   bool found = false;
   double best = t_to;
@@ -874,10 +878,8 @@ std::string MultirateIntegrator::failure(double H) const {
   std::vector<std::size_t> order(n_);
   for (std::size_t r = 0; r < n_; ++r) order[r] = r;
   const std::size_t shown = std::min<std::size_t>(3, n_);
-  std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(shown),
-                    order.end(), [&](auto a, auto b) {
-                      return std::abs(error_[a]) > std::abs(error_[b]);
-                    });
+  std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(shown), order.end(),
+                    [&](auto a, auto b) { return std::abs(error_[a]) > std::abs(error_[b]); });
   msg += "; largest weighted local errors:";
   for (std::size_t k = 0; k < shown; ++k) {
     std::snprintf(buf, sizeof buf, "%s %.3g at ", k ? "," : "", std::abs(error_[order[k]]));

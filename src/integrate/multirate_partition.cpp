@@ -12,11 +12,11 @@ namespace {
 std::vector<char> lone_sites(const System& s, int neighbours) {
   const int nx = s.nx(), ny = s.ny();
   std::vector<char> occupied(static_cast<std::size_t>(nx) * ny, 0);
-  for (const FrictionSite& site : s.sites())
+  for (const FrictionSite& site : s.contact_set().sites())
     occupied[static_cast<std::size_t>(site.ix + nx * site.iy)] = 1;
-  std::vector<char> lone(s.sites().size());
+  std::vector<char> lone(s.contact_set().sites().size());
   for (std::size_t j = 0; j < lone.size(); ++j) {
-    const FrictionSite& site = s.sites()[j];
+    const FrictionSite& site = s.contact_set().sites()[j];
     int count = 0;
     for (int dy = -1; dy <= 1; ++dy)
       for (int dx = -1; dx <= 1; ++dx) {
@@ -48,17 +48,17 @@ MultiratePartition::MultiratePartition(const System& system, long min_fast)
     : system_(system),
       min_fast_(min_fast),
       weight_(contact_weights(system, min_fast)),
-      forced_fast_(system.sites().size(), 0) {}
+      forced_fast_(system.contact_set().sites().size(), 0) {}
 
 std::vector<std::size_t> MultiratePartition::fast_contacts(
     double H, std::span<const double> y, std::span<const double> lattice_f,
     std::span<const std::array<double, 2>> contact_a, bool after_step_apart) const {
   std::vector<std::size_t> fast;
   for (std::size_t j = 0; j < contact_a.size(); ++j) {
-    const auto wx = system_.w_index(system_.sites()[j].node, 0);
+    const auto wx = system_.w_index(system_.contact_set().sites()[j].node, 0);
     const double sx = y[wx], sy = y[wx + 1];
     const double speed2 = sx * sx + sy * sy;
-    bool is_fast = forced_fast_[j] > 0 || system_.slipping(j, y);
+    bool is_fast = forced_fast_[j] > 0 || system_.contact_set().slipping(j, y);
     if (!is_fast && speed2 > 0.0) {
       const double ax = lattice_f[wx] + contact_a[j][0];
       const double ay = lattice_f[wx + 1] + contact_a[j][1];

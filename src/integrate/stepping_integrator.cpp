@@ -75,10 +75,12 @@ int SteppingIntegrator::root_fn(double t, N_Vector y, double* g, void* self) {
   return guarded(me->pending_, [&] {
     const auto state = as_span(y);
     const auto& watched = me->options_.watched_contacts;
-    me->system_.stick_slip_roots(state, watched, std::span<double>(g, me->roots_.size()));
+    me->system_.contact_set().stick_slip_roots(state, watched,
+                                               std::span<double>(g, me->roots_.size()));
     for (std::size_t k = 0; k < watched.size(); ++k)
       me->peaks_.sample_frontier(
-          k, t, me->system_.contact_speed(static_cast<std::size_t>(watched[k]), state));
+          k, t,
+          me->system_.contact_set().contact_speed(static_cast<std::size_t>(watched[k]), state));
   });
 }
 

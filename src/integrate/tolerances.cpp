@@ -22,7 +22,7 @@ ToleranceScales tolerance_scales(const System& system) {
   double speed = std::numeric_limits<double>::infinity();
   if (system.drive_velocity() > 0) speed = system.drive_velocity();
   // The smallest of the contacts' speed scales: their law's.
-  for (std::size_t i = 0; i < system.contacts().size(); ++i)
+  for (std::size_t i = 0; i < system.contact_set().contacts().size(); ++i)
     speed = std::min(speed, system.contact_set().speed_scale(i));
   if (!std::isfinite(speed)) speed = kFallbackSpeed;
   // Without contact forces (ε = 0) the lattice's own scale: the drive's

@@ -45,7 +45,7 @@ class ContactsRecorder final : public Recorder {
     if (s.resume_at) return;  // written by the first run
     const auto table = s.tables.create(
         {kTable, {integer("id"), integer("ix"), integer("iy"), real("v_star", "m/s", kExact)}});
-    const auto& contacts = s.system.contacts();
+    const auto& contacts = s.system.contact_set().contacts();
     for (std::size_t i = 0; i < contacts.size(); ++i) {
       const double row[4] = {double(i), double(contacts[i].ix), double(contacts[i].iy),
                              contacts[i].v_star};
@@ -176,8 +176,8 @@ class EventsRecorder final : public Recorder {
     // The label column holds the EventKind's number.
     static_assert(static_cast<int>(EventKind::slip) == 0 &&
                   static_cast<int>(EventKind::stick) == 1);
-    for (std::size_t i = 0; i < s.system.contacts().size(); ++i)
-      slipping_at_start_.push_back(s.system.slipping(i, s.initial_state));
+    for (std::size_t i = 0; i < s.system.contact_set().contacts().size(); ++i)
+      slipping_at_start_.push_back(s.system.contact_set().slipping(i, s.initial_state));
     if (s.resume_at) {
       table_->flush();  // the cut back reaches the file before it is read
       events_ = read_run_events(s.dir);
@@ -226,7 +226,7 @@ class EventsRecorder final : public Recorder {
           events_, id, slipping_at_start_[static_cast<std::size_t>(id)], t_avg, t_end));
     summary.events = std::move(events);
     if (!pair_) return;
-    const auto& contacts = system_.contacts();
+    const auto& contacts = system_.contact_set().contacts();
     const double window = travel_time(system_, contacts[static_cast<std::size_t>(pair_->first)],
                                       contacts[static_cast<std::size_t>(pair_->second)]);
     // Only the averaging window is correlated: the start from rest is a transient.
@@ -263,7 +263,7 @@ class SlipsRecorder final : public Recorder {
   explicit SlipsRecorder(const RecorderSetup& s)
       : system_(s.system),
         watched_(s.watched),
-        index_(s.system.contacts().size(), -1),
+        index_(s.system.contact_set().contacts().size(), -1),
         open_(s.watched.size()),
         acc_(static_cast<std::size_t>(3 * s.system.num_nodes())),
         // A run begun by code older than this table (continued with
@@ -290,7 +290,8 @@ class SlipsRecorder final : public Recorder {
     have_acc_ = false;  // a new state
     for (std::size_t k = 0; k < open_.size(); ++k) {
       if (!open_[k]) continue;
-      const double speed = system_.contact_speed(static_cast<std::size_t>(watched_[k]), y);
+      const double speed =
+          system_.contact_set().contact_speed(static_cast<std::size_t>(watched_[k]), y);
       open_[k]->peak = std::max({open_[k]->peak, peaks[k], speed});
     }
   }
@@ -422,18 +423,19 @@ class AttemptsRecorder final : public Recorder {
     const auto [kind, node] = component(r.worst);
     const std::int64_t layer = std::int64_t{system_.nx()} * system_.ny();
     const bool at_node = node >= 0;
-    const double row[12] = {r.t,
-                            r.h,
-                            static_cast<double>(r.fast_contacts),
-                            static_cast<double>(r.coupling_pass),
-                            r.error,
-                            r.coupling,
-                            r.miss,
-                            static_cast<double>(r.verdict),
-                            static_cast<double>(kind),
-                            at_node ? static_cast<double>(node % system_.nx()) : -1.0,
-                            at_node ? static_cast<double>((node / system_.nx()) % system_.ny()) : -1.0,
-                            at_node ? static_cast<double>(node / layer) : -1.0};
+    const double row[12] = {
+        r.t,
+        r.h,
+        static_cast<double>(r.fast_contacts),
+        static_cast<double>(r.coupling_pass),
+        r.error,
+        r.coupling,
+        r.miss,
+        static_cast<double>(r.verdict),
+        static_cast<double>(kind),
+        at_node ? static_cast<double>(node % system_.nx()) : -1.0,
+        at_node ? static_cast<double>((node / system_.nx()) % system_.ny()) : -1.0,
+        at_node ? static_cast<double>(node / layer) : -1.0};
     table_->append(row);
   }
   void flush() override { table_->flush(); }
@@ -441,9 +443,8 @@ class AttemptsRecorder final : public Recorder {
  private:
   // The worst component's kinds: a node's u and w along x, y, z (the state's
   // layout, System::u_index and w_index), the three quadratures, none.
-  static constexpr const char* kKinds[] = {"u_x",  "u_y",        "u_z",       "w_x",
-                                           "w_y",  "w_z",        "work",      "dissipated",
-                                           "friction_impulse", "none"};
+  static constexpr const char* kKinds[] = {
+      "u_x", "u_y", "u_z", "w_x", "w_y", "w_z", "work", "dissipated", "friction_impulse", "none"};
   static TableSpec schema() {
     Column verdict{.name = "verdict", .type = ColumnType::label};
     for (const char* name : AttemptRecord::kVerdictNames) verdict.labels.emplace_back(name);
@@ -451,9 +452,8 @@ class AttemptsRecorder final : public Recorder {
     for (const char* name : kKinds) kind.labels.emplace_back(name);
     return {kTable,
             {time_column(15), real("h", "s", kExact), integer("fast_contacts"),
-             integer("coupling_pass"),
-             real("error", "1"), real("coupling", "1"), real("miss", "1"), verdict, kind,
-             integer("worst_ix"), integer("worst_iy"), integer("worst_iz")}};
+             integer("coupling_pass"), real("error", "1"), real("coupling", "1"), real("miss", "1"),
+             verdict, kind, integer("worst_ix"), integer("worst_iy"), integer("worst_iz")}};
   }
   // State index i as (kind, node): node −1 for a quadrature or none.
   std::pair<int, std::int64_t> component(std::int64_t i) const {

@@ -251,7 +251,7 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
       system(c_, place_contacts(c_.lattice, c_.interface)),
       progress(!options_.quiet, c_.run.t_end, options_.on_progress) {
   const std::filesystem::path& dir = options.out_dir;
-  const auto& contacts = system.contacts();
+  const auto& contacts = system.contact_set().contacts();
   y0.resize(static_cast<std::size_t>(system.size()));
   system.initial_state(c.run.initial, y0);
   y = resume ? resume->state : y0;
@@ -502,7 +502,7 @@ Summary CaseRun::finish() {
 
   Summary summary;
   const double normal_force = system.normal_force();
-  summary.contacts = static_cast<long>(system.contacts().size());
+  summary.contacts = static_cast<long>(system.contact_set().contacts().size());
   summary.theta = system.coverage();
   summary.F_N = normal_force;
   summary.mu = (y[s.impulse_index] - s.impulse_at_average) / ((t_end - t_avg) * normal_force);

@@ -140,8 +140,7 @@ class ContactSubsteps {
  private:
   bool stages(std::size_t j, const NodeCoupling& coupling, const Forcing& forcing, double tau,
               double h, std::vector<std::array<double, 4>>& z,
-              std::vector<std::array<double, 4>>& f,
-              std::vector<std::array<double, 2>>& ac) const;
+              std::vector<std::array<double, 4>>& f, std::vector<std::array<double, 2>>& ac) const;
   double error_norm(double h, const std::array<double, 4>& x,
                     const std::vector<std::array<double, 4>>& f) const;
 

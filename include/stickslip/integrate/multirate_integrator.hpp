@@ -133,8 +133,7 @@ class MultirateIntegrator final : public Integrator {
   std::optional<Outcome> hand_back(Attempt& a);      // 5
   Forcing forcing_from(const Attempt& a, std::size_t q,
                        const std::vector<SubstepResult>& fine) const;
-  std::vector<Forcing> forcing_through_stages(const std::vector<std::size_t>& fast,
-                                              double H) const;
+  std::vector<Forcing> forcing_through_stages(const std::vector<std::size_t>& fast, double H) const;
   double partition_work(const Step& st, bool cancel_own) const;
   void accept();  // 6
   void report(const Attempt& a, const Outcome& o) const;
@@ -166,8 +165,8 @@ class MultirateIntegrator final : public Integrator {
   double t_;
   std::vector<double> y_, lattice_f_;
   std::vector<std::array<double, 2>> contact_a_;
-  double h_;                     // the next coarse step
-  std::vector<double> substep_;  // each site's next sub-step
+  double h_;                            // the next coarse step
+  std::vector<double> substep_;         // each site's next sub-step
   std::unique_ptr<Step> step_, trial_;  // the last accepted step, and the one being tried
   // The last failed attempt's verdict and reason, for the message if the
   // step then fails for good.

@@ -80,7 +80,7 @@ class MultiratePartition {
  private:
   const System& system_;
   long min_fast_;
-  std::vector<long> weight_;     // per site: its count toward min_fast
+  std::vector<long> weight_;      // per site: its count toward min_fast
   std::vector<int> forced_fast_;  // per site: steps it stays fast (hold_fast)
 };
 

@@ -48,8 +48,8 @@ struct AttemptRecord {
   };
   // The verdicts' names (attempts.csv's labels), in the enumerators' order.
   static constexpr std::array<const char*, 8> kVerdictNames{
-      "accepted",     "retry_turned_fast", "retry_refused_stage", "shrink_error",
-      "shrink_miss",  "shrink_coupling",   "shrink_substeps",     "shrink_stage"};
+      "accepted",    "retry_turned_fast", "retry_refused_stage", "shrink_error",
+      "shrink_miss", "shrink_coupling",   "shrink_substeps",     "shrink_stage"};
 
   double t = 0.0, h = 0.0;
   long fast_contacts = 0;
@@ -65,4 +65,3 @@ struct AttemptRecord {
 };
 
 }  // namespace stickslip
-

@@ -80,12 +80,6 @@ class System {
   // The friction interface: the contacts, their sites, the law and what is
   // decided per site or contact (model/contacts.hpp).
   const ContactSet& contact_set() const { return contact_set_; }
-  // forwards to ContactSet::contacts
-  const std::vector<Contact>& contacts() const { return contact_set_.contacts(); }
-  // forwards to ContactSet::patch
-  int patch() const { return contact_set_.patch(); }  // R
-  // forwards to ContactSet::sites
-  const std::vector<FrictionSite>& sites() const { return contact_set_.sites(); }
 
   // y at t = 0: at rest, or sliding (w^x = v everywhere); quadratures zero.
   void initial_state(InitialState initial, std::span<double> y) const;
@@ -98,13 +92,6 @@ class System {
   void rhs_explicit(double t, std::span<const double> y, std::span<double> ydot,
                     int threads = 1) const;
   void rhs_implicit(double t, std::span<const double> y, std::span<double> ydot) const;
-
-  // Site j's stage equation s − γ a_c(s) = b, solved exactly by the law
-  // (ContactSet::site_stage). forwards to ContactSet::site_stage
-  ContactStage site_stage(std::size_t j, double gamma, std::array<double, 2> b,
-                          double predictor_speed, bool derivative) const {
-    return contact_set_.site_stage(j, gamma, b, predictor_speed, derivative);
-  }
 
   // The lattice's accelerations (elastic faces and cells, damping, drive
   // springs and dashpots to the plate; MODEL.md §3–5) at time t for
@@ -139,39 +126,6 @@ class System {
   // Relative energy-audit residual [ΔE − ∫(P_in − D)] / ∫ P_in (§8), from y(t)
   // and the state it started from.
   double energy_residual(double t, std::span<const double> y, std::span<const double> y0) const;
-  // Per site and per contact (ContactSet, model/contacts.hpp):
-  // forwards to ContactSet::contact_speed
-  double contact_speed(std::size_t i, std::span<const double> y) const {
-    return contact_set_.contact_speed(i, y);
-  }
-  // forwards to ContactSet::site_acceleration
-  std::array<double, 2> site_acceleration(std::size_t j, std::array<double, 2> s) const {
-    return contact_set_.site_acceleration(j, s);
-  }
-  // forwards to ContactSet::stick_slip_roots
-  void stick_slip_roots(std::span<const double> y, std::span<const int> watched,
-                        std::span<double> g) const {
-    contact_set_.stick_slip_roots(y, watched, g);
-  }
-  // forwards to ContactSet::stick_slip_root (the law's root at a given speed)
-  double stick_slip_root(std::size_t i, double speed) const {
-    return contact_set_.stick_slip_root(i, speed);
-  }
-  // forwards to ContactSet::slipping
-  bool slipping(std::size_t i, std::span<const double> y) const {
-    return contact_set_.slipping(i, y);
-  }
-  // forwards to ContactSet::slip_threshold
-  double slip_threshold() const { return contact_set_.slip_threshold(); }
-  // forwards to ContactSet::site_weakening_rate
-  double site_weakening_rate(std::size_t j, std::array<double, 2> s) const {
-    return contact_set_.site_weakening_rate(j, s);
-  }
-  // forwards to ContactSet::site_damping_rate
-  double site_damping_rate(std::size_t j, std::array<double, 2> s) const {
-    return contact_set_.site_damping_rate(j, s);
-  }
-
   // The block's centre-of-mass x-velocity (all nodes have the same mass) [m/s].
   double block_velocity(std::span<const double> y) const;
   // ∫₀ᵗ Σ_c F^x_contact,c dt' (+ the block's momentum at t = 0) from the
