@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "stickslip/case/keys.hpp"
 #include "stickslip/integrate/contact_substeps.hpp"
 #include "stickslip/integrate/make_integrator.hpp"
 #include "stickslip/integrate/multirate_integrator.hpp"
@@ -48,7 +49,7 @@ TEST_CASE("a fast contact's sub-steps converge to a direct solution of its node"
   const System system = test::make_system(c);
   const auto couplings = node_couplings(system);
   const NodeCoupling& coupling = couplings[0];
-  const double v_star = system.contacts()[0].v_star, H = 2e-8;
+  const double v_star = system.contact_set().contacts()[0].v_star, H = 2e-8;
   Forcing forcing = Forcing::taylor(H, {2e5, -1e4}, {3e11, 1e11});
   const std::array<double, 4> x0{1e-7, -2e-8, 5 * v_star, 0.3 * v_star};
 
@@ -57,7 +58,7 @@ TEST_CASE("a fast contact's sub-steps converge to a direct solution of its node"
   using State = std::array<double, 6>;
   auto f = [&](double tau, const State& x) {
     const auto phi = forcing.at(tau);
-    const auto a = system.site_acceleration(0, {x[2], x[3]});
+    const auto a = system.contact_set().site_acceleration(0, {x[2], x[3]});
     return State{x[2],
                  x[3],
                  phi[0] + coupling.stiffness * x[0] + coupling.damping * x[2] + a[0],
@@ -88,7 +89,7 @@ TEST_CASE("a fast contact's sub-steps converge to a direct solution of its node"
     const ToleranceScales scale = tolerance_scales(system);
     const double atol_u = rtol * scale.displacement, atol_w = rtol * scale.velocity;
     const ContactSubsteps substeps(system, table, rtol, {atol_u, atol_u, atol_w, atol_w});
-    const auto a0 = system.site_acceleration(0, {x0[2], x0[3]});
+    const auto a0 = system.contact_set().site_acceleration(0, {x0[2], x0[3]});
     const SubstepResult r = substeps.advance(0, coupling, H, x0, a0, forcing, H / 16);
     const auto& end = r.points.back();
     CHECK(end.tau == H);
@@ -255,7 +256,8 @@ TEST_CASE("multirate's steps.csv says how many contacts each step left to their 
   CHECK(static_cast<long>(rows.size()) == summary.solver_stats.steps);
   CHECK(fast_rows > 0);
   CHECK(fast_steps == summary.solver_stats.count("fast_contact_steps"));
-  CHECK(substeps <= summary.solver_stats.count("substeps"));  // the stats count retried attempts' too
+  CHECK(substeps <=
+        summary.solver_stats.count("substeps"));  // the stats count retried attempts' too
 }
 
 TEST_CASE("steps.csv has multirate's columns where method = \"auto\" chose multirate",
@@ -454,8 +456,8 @@ std::vector<AttemptRow> read_attempts(const std::filesystem::path& file, std::st
     for (std::string x; std::getline(fields, x, ',');) f.push_back(x);
     REQUIRE(f.size() == 12);
     rows.push_back({std::stod(f[0]), std::stod(f[1]), std::stol(f[2]), std::stol(f[3]),
-                    std::stod(f[4]), std::stod(f[5]), std::stod(f[6]), f[7], f[8],
-                    std::stol(f[9]), std::stol(f[10]), std::stol(f[11])});
+                    std::stod(f[4]), std::stod(f[5]), std::stod(f[6]), f[7], f[8], std::stol(f[9]),
+                    std::stol(f[10]), std::stol(f[11])});
   }
   return rows;
 }
@@ -547,9 +549,10 @@ TEST_CASE("attempts.csv accounts for every coarse attempt, and asking for it cha
   CHECK(!std::filesystem::exists(plain.out_dir / "attempts.csv"));
 }
 
-TEST_CASE("multirate on a 5x5 block of neighbouring contacts: each one's slips as dirk's at a "
-          "far tighter tolerance (a known defect: fails today)",
-          "[multirate][!shouldfail]") {
+TEST_CASE(
+    "multirate on a 5x5 block of neighbouring contacts: each one's slips as dirk's at a "
+    "far tighter tolerance (a known defect: fails today)",
+    "[multirate][!shouldfail]") {
   // 25 contacts side by side: their slips spread through the block, and from
   // multirate_min_fast 16 more than 20 of them at once are stepped apart on
   // sub-steps, each reading its fast neighbours' motion off their sub-steps
@@ -603,4 +606,20 @@ TEST_CASE("multirate on a 5x5 block of neighbouring contacts: each one's slips a
   // dirk itself at rtol 1e-7 is 3e-8 s from its 1e-9: within 3 % of a slip.
   CHECK(worst < 1e-7);
   CHECK(std::abs(mr.residual) < 100 * 1e-7);
+}
+
+TEST_CASE("multirate_min_fast's help states the partition's own constants", "[multirate]") {
+  // The reader (case/) does not reach the partition (integrate/), so the
+  // help writes them out; this holds the two together.
+  std::string help;
+  for (const CaseKey& k : case_keys())
+    if (k.section == "solver" && k.key == "multirate_min_fast") help = k.help;
+  REQUIRE(!help.empty());
+  CHECK(help.find("counting " + std::to_string(MultiratePartition::kLoneShare)) !=
+        std::string::npos);
+  CHECK(help.find("1/" + std::to_string(MultiratePartition::kStayApart) + " as many") !=
+        std::string::npos);
+  CHECK(help.find(MultiratePartition::kLoneNeighbours == 1
+                      ? "at most one contact"
+                      : "(no such wording)") != std::string::npos);
 }
