@@ -208,6 +208,21 @@ struct StepRow {
   double miss;
 };
 
+// A multirate run's steps.csv, and its header.
+std::vector<StepRow> read_steps(const std::filesystem::path& file, std::string& header) {
+  std::ifstream in(file);
+  std::getline(in, header);
+  std::vector<StepRow> rows;
+  std::string line;
+  while (std::getline(in, line)) {
+    StepRow r{};
+    REQUIRE(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%ld,%ld,%lf", &r.t, &r.h, &r.error,
+                        &r.h_lambda, &r.fast, &r.substeps, &r.miss) == 7);
+    rows.push_back(r);
+  }
+  return rows;
+}
+
 // The pair `c` (the Fig. 10b pair unless given) to t_end (the Fig. 10b pair
 // through contact 0's first slip, ~0.7 ms), multirate with `min_fast`, and
 // its steps.csv's header and rows.
@@ -222,17 +237,7 @@ std::vector<StepRow> pair_steps(long min_fast, const std::string& name, Summary&
   test::TempDir dir(name);
   RunOptions options{dir.path / "run", false, true};
   summary = run_case(c, options);
-  std::ifstream in(options.out_dir / "steps.csv");
-  std::getline(in, header);
-  std::vector<StepRow> rows;
-  std::string line;
-  while (std::getline(in, line)) {
-    StepRow r{};
-    REQUIRE(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%ld,%ld,%lf", &r.t, &r.h, &r.error,
-                        &r.h_lambda, &r.fast, &r.substeps, &r.miss) == 7);
-    rows.push_back(r);
-  }
-  return rows;
+  return read_steps(options.out_dir / "steps.csv", header);
 }
 
 }  // namespace
@@ -489,18 +494,8 @@ TEST_CASE("attempts.csv accounts for every coarse attempt, and asking for it cha
         "t,h,fast_contacts,coupling_pass,error,coupling,miss,verdict,worst,worst_ix,worst_iy,"
         "worst_iz");
   CHECK(static_cast<long>(rows.size()) == summary.solver_stats.step_attempts);
-  std::vector<StepRow> steps;
-  {
-    std::ifstream in(options.out_dir / "steps.csv");
-    std::string line;
-    std::getline(in, line);
-    while (std::getline(in, line)) {
-      StepRow r{};
-      REQUIRE(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%ld,%ld,%lf", &r.t, &r.h, &r.error,
-                          &r.h_lambda, &r.fast, &r.substeps, &r.miss) == 7);
-      steps.push_back(r);
-    }
-  }
+  std::string steps_header;
+  const std::vector<StepRow> steps = read_steps(options.out_dir / "steps.csv", steps_header);
   std::size_t accepted = 0;
   long shrinks = 0, retries = 0, apart = 0;
   for (std::size_t k = 0; k < rows.size(); ++k) {

@@ -875,17 +875,7 @@ std::string MultirateIntegrator::failure(double H) const {
   msg += AttemptRecord::kVerdictNames[static_cast<std::size_t>(last_failure_.verdict)];
   if (!last_failure_.reason.empty()) msg += " (" + last_failure_.reason + ")";
   if (!std::isfinite(trial_->error)) return msg;
-  std::vector<std::size_t> order(n_);
-  for (std::size_t r = 0; r < n_; ++r) order[r] = r;
-  const std::size_t shown = std::min<std::size_t>(3, n_);
-  std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(shown), order.end(),
-                    [&](auto a, auto b) { return std::abs(error_[a]) > std::abs(error_[b]); });
-  msg += "; largest weighted local errors:";
-  for (std::size_t k = 0; k < shown; ++k) {
-    std::snprintf(buf, sizeof buf, "%s %.3g at ", k ? "," : "", std::abs(error_[order[k]]));
-    msg += buf + system_.describe_component(static_cast<std::int64_t>(order[k]));
-  }
-  return msg;
+  return msg + largest_errors(system_, error_);
 }
 
 SolverStats MultirateIntegrator::stats() const {

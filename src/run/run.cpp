@@ -46,6 +46,21 @@ constexpr double kInfinity = std::numeric_limits<double>::infinity();
 // A fixed-step run whose energy audit is off by this much has blown up.
 constexpr double kDivergedResidual = 0.5;
 
+// A callback that hands each record to the recorders that want them
+// (`wants`), or none if none does.
+template <class Record>
+std::function<void(const Record&)> fan_out(const std::vector<std::unique_ptr<Recorder>>& recorders,
+                                           bool (Recorder::*wants)() const,
+                                           void (Recorder::*give)(const Record&)) {
+  std::vector<Recorder*> takers;
+  for (const auto& r : recorders)
+    if (((*r).*wants)()) takers.push_back(r.get());
+  if (takers.empty()) return {};
+  return [takers, give](const Record& record) {
+    for (Recorder* r : takers) (r->*give)(record);
+  };
+}
+
 double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
@@ -286,20 +301,12 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
     }
     return stop_signal() != 0;
   };
-  std::vector<Recorder*> step_recorders;
-  for (const auto& r : recorders)
-    if (r->wants_steps()) step_recorders.push_back(r.get());
-  if (!step_recorders.empty())
-    integrator_options.on_step = [step_recorders](const StepRecord& step) {
-      for (Recorder* r : step_recorders) r->step(step);
-    };
-  std::vector<Recorder*> attempt_recorders;
-  for (const auto& r : recorders)
-    if (r->wants_attempts()) attempt_recorders.push_back(r.get());
-  if (!attempt_recorders.empty())
-    integrator_options.on_attempt = [attempt_recorders](const AttemptRecord& attempt) {
-      for (Recorder* r : attempt_recorders) r->attempt(attempt);
-    };
+  // Only recorders that want every step (or attempt) get it: a callback per
+  // step costs, so none is set where none asks.
+  integrator_options.on_step =
+      fan_out<StepRecord>(recorders, &Recorder::wants_steps, &Recorder::step);
+  integrator_options.on_attempt =
+      fan_out<AttemptRecord>(recorders, &Recorder::wants_attempts, &Recorder::attempt);
 
   stats_before = resume ? resume->stats : SolverStats{};
   // max_steps counts the steps before a restart too: the integrator's budget is what is left.
