@@ -141,6 +141,18 @@ TEST_CASE("malformed TOML names the file and line", "[case]") {
                       Catch::StartsWith("cases/t.toml:4: malformed TOML: "));
 }
 
+TEST_CASE("a case file as Windows editors write it (byte-order mark, CRLF) reads as its text",
+          "[case]") {
+  const std::string plain = "[lattice]\nnx = 4\n\n[drive]\nvelocity = 2e-3  # m/s\n";
+  std::string windows = "\xEF\xBB\xBF";
+  for (const char ch : plain) windows += ch == '\n' ? std::string("\r\n") : std::string(1, ch);
+  CHECK(to_json(parse(windows)) == to_json(parse(plain)));
+  CHECK(parse(windows).lattice.nx == 4);
+  // Errors keep their lines, the mark counted in none.
+  REQUIRE_THROWS_WITH(parse("\xEF\xBB\xBF[drive]\r\n\r\nvelocty = 1e-3\r\n"),
+                      Catch::StartsWith("cases/t.toml:3: drive.velocty: unknown key"));
+}
+
 TEST_CASE("unknown keys and sections, with a suggestion when close", "[case]") {
   REQUIRE_THROWS_WITH(
       parse("[drive]\n\nvelocty = 1e-3\n"),

@@ -112,6 +112,10 @@ std::string code_point(char32_t cp) {
 // reports the first two as malformed TOML and replaces the third by its \U
 // escape, which means the same. Lines are kept, so messages stay right.
 toml::table parse_toml(std::string_view text, std::string_view source) {
+  // A UTF-8 byte-order mark, which Windows editors write at a file's start,
+  // marks the encoding and is no part of the text (CRLF line ends toml++
+  // reads as they are).
+  if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);
   enum class State { normal, comment, basic, literal, ml_basic, ml_literal } state = State::normal;
   enum class Next { key, value, other } next = Next::key;  // what may start here (normal state)
   bool in_value = false;  // right of an '=', until the line or the inline table ends

@@ -19,7 +19,8 @@ struct TomlSyntaxError {
   std::uint32_t line;
 };
 
-// Parses `text` (messages name `source`); throws TomlSyntaxError.
+// Parses `text` (messages name `source`), a leading byte-order mark left out;
+// throws TomlSyntaxError.
 toml::table parse_toml(std::string_view text, std::string_view source);
 
 // The fewest %g digits that read back as x: 0.0005, 1e-12, 0.1.
