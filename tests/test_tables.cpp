@@ -1,8 +1,11 @@
 // A run's tables in CSV and in HDF5: the same rows either way, read back the
 // same way, cut back and continued by a restart; a run in format "hdf5"
 // holds the same numbers as the same run's CSV files.
+#include <sys/resource.h>
+
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -306,4 +309,40 @@ TEST_CASE("an exact column is written in the fewest digits that read back bit fo
   const TraceTable back = read_run_table(tmp.path, "exact");
   REQUIRE(back.values.at(0).size() == values.size());
   for (std::size_t k = 0; k < values.size(); ++k) CHECK(back.values[0][k] == values[k]);
+}
+
+TEST_CASE(
+    "a write the OS refuses says why, keeps the file it would replace, and leaves no "
+    "temporary file",
+    "[tables]") {
+  // A real refusal: a file-size limit below what is written makes write(2)
+  // fail with EFBIG, as a full disk makes it fail with ENOSPC.
+  test::TempDir dir("stickslip_test_write_refused");
+  const auto file = dir.path / "summary.json";
+  write_atomically(file, [](std::ostream& out) { out << "kept\n"; });
+  rlimit before{};
+  REQUIRE(getrlimit(RLIMIT_FSIZE, &before) == 0);
+  const auto previous = std::signal(SIGXFSZ, SIG_IGN);
+  rlimit small = before;
+  small.rlim_cur = 4096;
+  REQUIRE(setrlimit(RLIMIT_FSIZE, &small) == 0);
+  std::string message;
+  try {
+    write_atomically(file, [](std::ostream& out) { out << std::string(1 << 20, 'x'); });
+  } catch (const OutputError& e) {
+    message = e.what();
+  }
+  REQUIRE(setrlimit(RLIMIT_FSIZE, &before) == 0);
+  std::signal(SIGXFSZ, previous);
+  CHECK_THAT(message, Catch::Contains("write failed: File too large"));
+  std::ifstream in(file);
+  std::string kept;
+  std::getline(in, kept);
+  CHECK(kept == "kept");
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path))
+    CHECK(entry.path().extension() != ".tmp");
+  // A writer that throws leaves no temporary file either.
+  CHECK_THROWS(write_atomically(file, [](std::ostream&) { throw std::runtime_error("stop"); }));
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path))
+    CHECK(entry.path().extension() != ".tmp");
 }

@@ -2,7 +2,10 @@
 
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
+#include <string>
 #include <system_error>
 
 namespace stickslip {
@@ -58,13 +61,32 @@ void keep_rows_up_to(const std::filesystem::path& file, double t) {
 void write_atomically(const std::filesystem::path& file,
                       const std::function<void(std::ostream&)>& write) {
   const auto tmp = std::filesystem::path(file.string() + "." + std::to_string(getpid()) + ".tmp");
-  {
-    std::ofstream out(tmp, std::ios::binary);
-    if (!out) throw OutputError(tmp.string() + ": cannot open for writing");
-    write(out);
-    if (!out.flush()) throw OutputError(tmp.string() + ": write failed");
-  }
   std::error_code ec;
+  // A write that fails says why (the OS's reason: "No space left on device")
+  // and leaves no temporary file behind; the file it would replace is kept.
+  auto fail = [&](const char* what) {
+    const std::string reason = errno ? std::strerror(errno) : "unknown reason";
+    std::filesystem::remove(tmp, ec);
+    throw OutputError(tmp.string() + ": " + what + ": " + reason);
+  };
+  {
+    errno = 0;
+    std::ofstream out(tmp, std::ios::binary);
+    if (!out) fail("cannot open for writing");
+    try {
+      write(out);
+    } catch (...) {
+      out.close();
+      std::filesystem::remove(tmp, ec);
+      throw;
+    }
+    if (!out.flush()) {
+      const int saved = errno;
+      out.close();
+      errno = saved;
+      fail("write failed");
+    }
+  }
   std::filesystem::rename(tmp, file, ec);
   if (ec) throw OutputError(file.string() + ": cannot replace: " + ec.message());
 }
