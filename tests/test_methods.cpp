@@ -343,6 +343,24 @@ TEST_CASE("a run whose energy audit exceeds the bound reports no mu", "[methods]
   const auto summary = nlohmann::json::parse(std::ifstream(options.out_dir / "summary.json"));
   CHECK(summary.at("energy_audit_bound").get<double>() == Approx(100 * c.solver.rtol));
   CHECK(summary.at("energy_residual").get<double>() == ok.energy_residual);
+  // The absolute allowance beside the bound it relaxes, and the audit held
+  // to the two together.
+  const double allowance = summary.at("energy_audit_allowance").get<double>();
+  CHECK(allowance > 0.0);
+  CHECK(std::abs(ok.energy_residual) <= ok.energy_audit_bound + allowance);
+
+  // A bound too tight for the residual, which the allowance alone lets pass
+  // (one absolute energy tolerance over a tiny work done): summary.json says
+  // so, where it read as if the bound had been met.
+  Case little = c;
+  little.run.t_end = 1e-6;
+  little.run.average_from = 0.0;
+  little.solver.audit_bound = 1e-300;
+  options.out_dir = dir.path / "little";
+  const Summary passed = run_case(little, options);
+  CHECK(std::abs(passed.energy_residual) > passed.energy_audit_bound);
+  CHECK(std::abs(passed.energy_residual) <=
+        passed.energy_audit_bound + passed.energy_audit_allowance);
 
   // Held to a bound this loose rtol cannot meet. Below one absolute energy
   // tolerance a residual is not judged (k1 a atol_u), so atol_u is given

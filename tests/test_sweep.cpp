@@ -84,6 +84,22 @@ TEST_CASE("a sweep runs every combination once, and started again only what is u
     CHECK(summary["case"]["interface"]["seed"].get<int>() == std::stoi(expected[i].second));
   }
 
+  // The command line names the points whose μ is no friction coefficient
+  // (sweep.csv's regime), each as it finishes and all of them at the end:
+  // here every window is 0.2 ms of the loading ramp from rest.
+  const auto regime = column(rows, "regime");
+  std::size_t untrusted = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    const std::string& r = rows[i][regime];
+    if (r == "stick-slip" || r == "steady sliding") continue;
+    ++untrusted;
+    CHECK_THAT(first.out, Catch::Contains(rows[i][0] + ": mu = ") &&
+                              Catch::Contains("not a friction coefficient (" + r + ")"));
+  }
+  CHECK(untrusted == 4);
+  CHECK_THAT(first.out, Catch::Contains(std::to_string(untrusted) +
+                                        " of them have a mu that is not a friction coefficient"));
+
   // sweep_summary.csv: μ over the seeds at each coverage.
   const auto means = csv(out / "sweep_summary.csv");
   REQUIRE(means.size() == 3);
@@ -101,6 +117,7 @@ TEST_CASE("a sweep runs every combination once, and started again only what is u
   const auto report = box.run({"sweep", "tiny.toml", "--report"});
   CHECK(report.code == 1);
   CHECK_THAT(report.out, Catch::Contains("3 of 4 points finished"));
+  CHECK_THAT(report.out, Catch::Contains("3 of them have a mu that is not a friction coefficient"));
   CHECK_FALSE(fs::exists(out / "coverage=0.5_seed=1"));
   const auto partial = csv(out / "sweep.csv");
   CHECK(partial[3][status] == "not run");

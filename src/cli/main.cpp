@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -18,6 +19,7 @@
 #include "stickslip/case/keys.hpp"
 #include "stickslip/case/reader.hpp"
 #include "stickslip/integrate/errors.hpp"
+#include "stickslip/output/summary.hpp"
 #include "stickslip/output/writers.hpp"
 #include "stickslip/run/resume.hpp"
 #include "stickslip/run/run.hpp"
@@ -183,6 +185,31 @@ class MpiWorld {
 // tables from every shard's points finished so far (the last shard to end
 // leaves them complete; `--report` writes them again at any time). Exit 0 when
 // all of this shard's points finished.
+// The finished points whose μ is no friction coefficient (their window a
+// loading ramp, unsettled, ...: summary.json's regime), counted and named,
+// as sweep.csv's regime column and Python's sweep() say them.
+void print_untrusted(const std::vector<stickslip::SweepPoint>& points,
+                     const std::filesystem::path& out_dir) {
+  std::vector<std::string> names;
+  for (const auto& p : points) {
+    std::optional<stickslip::Summary> s;
+    try {
+      s = stickslip::read_summary(out_dir / p.name);
+    } catch (const stickslip::OutputError&) {
+      continue;  // not a finished point: sweep.csv says so
+    }
+    if (s && s->regime && !s->regime->mu_trusted())
+      names.push_back(p.name + " (" + stickslip::to_string(s->regime->kind) + ")");
+  }
+  if (names.empty()) return;
+  std::printf("%zu of them have a mu that is not a friction coefficient:", names.size());
+  for (std::size_t i = 0; i < names.size(); ++i)
+    std::printf("%s %s", i ? "," : "", names[i].c_str());
+  std::printf(
+      "\n  (a window on the loading ramp, or no whole cycle: start the average later "
+      "or run longer; sweep.csv's regime column)\n");
+}
+
 int sweep_shard(const stickslip::Sweep& sweep, const std::vector<stickslip::SweepPoint>& points,
                 stickslip::SweepOptions options, stickslip::Shard shard, int jobs) {
   using namespace stickslip;
@@ -244,6 +271,7 @@ int sweep_command(const std::string& sweep_file, const std::string& out, int job
       std::printf("%zu of %zu points finished; tables: %s, %s\n", finished, points.size(),
                   (options.out_dir / kSweepFile).c_str(),
                   (options.out_dir / kSweepSummaryFile).c_str());
+      print_untrusted(points, options.out_dir);
       return finished == points.size() ? 0 : 1;
     }
     if (sharded) return sweep_shard(sweep, points, options, shard, jobs);
@@ -277,6 +305,7 @@ int sweep_command(const std::string& sweep_file, const std::string& out, int job
     std::printf("%zu of %zu points finished (%zu already were); tables: %s, %s\n", finished,
                 points.size(), outcome.skipped, (options.out_dir / kSweepFile).c_str(),
                 (options.out_dir / kSweepSummaryFile).c_str());
+    print_untrusted(points, options.out_dir);
     return finished == points.size() ? 0 : 1;
   });
 }

@@ -89,6 +89,7 @@ nlohmann::json to_json(const Summary& s) {
       {"wall_seconds", s.wall_seconds},
       {"energy_residual", number_or_null(s.energy_residual)},
       {"energy_audit_bound", s.energy_audit_bound},
+      {"energy_audit_allowance", number_or_null(s.energy_audit_allowance)},
       {"steady_sliding_mu", number_or_null(s.steady_sliding_mu)},
       {"solver", s.solver},
       {"solver_stats", s.solver_stats},
@@ -132,6 +133,9 @@ Summary summary_from_json(const nlohmann::json& j) {
   s.wall_seconds = number(j, "wall_seconds");
   s.energy_residual = number(j, "energy_residual");
   s.energy_audit_bound = number(j, "energy_audit_bound");
+  // Older summaries have none: no allowance was reported then.
+  s.energy_audit_allowance =
+      j.contains("energy_audit_allowance") ? number(j, "energy_audit_allowance") : 0.0;
   s.steady_sliding_mu = number(j, "steady_sliding_mu");
   s.solver = field(j, "solver");
   s.solver_stats =

@@ -545,6 +545,7 @@ Summary CaseRun::finish() {
   summary.t_end = t_end;
   summary.average_from = t_avg;
   summary.energy_audit_bound = audit_bound;
+  summary.energy_audit_allowance = energy_atol / std::abs(work);
   summary.steady_sliding_mu = system.steady_sliding_mu();
   summary.solver = describe_solver(system, s.solver, *s.integrator);
   // This attempt's (a restart's clocks start afresh).

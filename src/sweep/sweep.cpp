@@ -442,6 +442,10 @@ SweepOutcome run_sweep(const Sweep& sweep, const std::vector<SweepPoint>& points
       std::snprintf(buf, sizeof buf, "mu = %.6f (%.1f s)", s ? s->mu : NAN,
                     s ? s->wall_seconds : NAN);
       line += buf;
+      // As the point's own run says on its stderr: a μ that is no friction
+      // coefficient is named where the sweep reports it.
+      if (s && s->regime && !s->regime->mu_trusted())
+        line += std::string(", not a friction coefficient (") + to_string(s->regime->kind) + ")";
     } else if (code == 130 || code == 143) {
       line += "interrupted; a checkpoint is kept";
     } else {
