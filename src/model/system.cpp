@@ -122,17 +122,22 @@ System::System(const Case& c, std::vector<Contact> contacts)
   for (int i = 0; i < ny_; ++i) y_next_[i] = (i + 1) % ny_;
 }
 
-std::string System::describe_component(std::int64_t i) const {
-  static const char* const kQuadratureNames[] = {"the work integral", "the dissipation integral",
-                                                 "the friction impulse"};
-  if (i >= 6 * n_) return kQuadratureNames[i - 6 * n_];
+System::Component System::component(std::int64_t i) const {
+  if (i >= 6 * n_) return {static_cast<int>(6 + (i - 6 * n_))};
   const bool velocity = i >= 3 * n_;
   const std::int64_t r = velocity ? i - 3 * n_ : i;
   const std::int64_t n = r / 3;
-  const int ix = static_cast<int>(n % nx_), iy = static_cast<int>((n / nx_) % ny_),
-            iz = static_cast<int>(n / (std::int64_t{nx_} * ny_));
-  return std::string(velocity ? "w^" : "u^") + "xyz"[r % 3] + " of node (" + std::to_string(ix) +
-         ", " + std::to_string(iy) + ", " + std::to_string(iz) + ")";
+  return {static_cast<int>((velocity ? 3 : 0) + r % 3), static_cast<int>(n % nx_),
+          static_cast<int>((n / nx_) % ny_), static_cast<int>(n / (std::int64_t{nx_} * ny_))};
+}
+
+std::string System::describe_component(std::int64_t i) const {
+  static const char* const kQuadratureNames[] = {"the work integral", "the dissipation integral",
+                                                 "the friction impulse"};
+  const Component c = component(i);
+  if (c.kind >= 6) return kQuadratureNames[c.kind - 6];
+  return std::string(c.kind >= 3 ? "w^" : "u^") + "xyz"[c.kind % 3] + " of node (" +
+         std::to_string(c.ix) + ", " + std::to_string(c.iy) + ", " + std::to_string(c.iz) + ")";
 }
 
 double System::coverage() const {

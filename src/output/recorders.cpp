@@ -420,29 +420,28 @@ class AttemptsRecorder final : public Recorder {
       : system_(s.system), table_(open_table(s, schema())) {}
   bool wants_attempts() const override { return true; }
   void attempt(const AttemptRecord& r) override {
-    const auto [kind, node] = component(r.worst);
-    const std::int64_t layer = std::int64_t{system_.nx()} * system_.ny();
-    const bool at_node = node >= 0;
-    const double row[12] = {
-        r.t,
-        r.h,
-        static_cast<double>(r.fast_contacts),
-        static_cast<double>(r.coupling_pass),
-        r.error,
-        r.coupling,
-        r.miss,
-        static_cast<double>(r.verdict),
-        static_cast<double>(kind),
-        at_node ? static_cast<double>(node % system_.nx()) : -1.0,
-        at_node ? static_cast<double>((node / system_.nx()) % system_.ny()) : -1.0,
-        at_node ? static_cast<double>(node / layer) : -1.0};
+    // "none" (the last kind) and −1 where no component decided the verdict.
+    const System::Component c = r.worst >= 0
+                                    ? system_.component(r.worst)
+                                    : System::Component{static_cast<int>(std::size(kKinds)) - 1};
+    const double row[12] = {r.t,
+                            r.h,
+                            static_cast<double>(r.fast_contacts),
+                            static_cast<double>(r.coupling_pass),
+                            r.error,
+                            r.coupling,
+                            r.miss,
+                            static_cast<double>(r.verdict),
+                            static_cast<double>(c.kind),
+                            static_cast<double>(c.ix),
+                            static_cast<double>(c.iy),
+                            static_cast<double>(c.iz)};
     table_->append(row);
   }
   void flush() override { table_->flush(); }
 
  private:
-  // The worst component's kinds: a node's u and w along x, y, z (the state's
-  // layout, System::u_index and w_index), the three quadratures, none.
+  // The worst component's kinds, System::Component's, and none.
   static constexpr const char* kKinds[] = {
       "u_x", "u_y", "u_z", "w_x", "w_y", "w_z", "work", "dissipated", "friction_impulse", "none"};
   static TableSpec schema() {
@@ -455,16 +454,6 @@ class AttemptsRecorder final : public Recorder {
              integer("coupling_pass"), real("error", "1"), real("coupling", "1"), real("miss", "1"),
              verdict, kind, integer("worst_ix"), integer("worst_iy"), integer("worst_iz")}};
   }
-  // State index i as (kind, node): node −1 for a quadrature or none.
-  std::pair<int, std::int64_t> component(std::int64_t i) const {
-    const std::int64_t n = system_.num_nodes();
-    if (i < 0) return {9, -1};
-    if (i >= 6 * n) return {static_cast<int>(6 + (i - 6 * n)), -1};
-    const bool velocity = i >= 3 * n;
-    const std::int64_t r = velocity ? i - 3 * n : i;
-    return {static_cast<int>((velocity ? 3 : 0) + r % 3), r / 3};
-  }
-
   const System& system_;
   std::unique_ptr<Table> table_;
 };

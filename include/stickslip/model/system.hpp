@@ -76,6 +76,14 @@ class System {
 
   // "u^x of node (3, 4, 0)" for state index i, for diagnostics.
   std::string describe_component(std::int64_t i) const;
+  // State index i as what it is: a node's u or w along an axis (kind 0-2:
+  // u_x, u_y, u_z; 3-5: w_x, w_y, w_z) at (ix, iy, iz), or quadrature q
+  // (kind 6 + q, the node −1).
+  struct Component {
+    int kind;
+    int ix = -1, iy = -1, iz = -1;
+  };
+  Component component(std::int64_t i) const;
 
   // The friction interface: the contacts, their sites, the law and what is
   // decided per site or contact (model/contacts.hpp).
