@@ -55,11 +55,13 @@ def number(value) -> str:
 
 
 def curves(rows, label_key):
-    """{label value: [(theta, mean, sd, count, whole_cycles, untrusted)]}, sorted by theta;
+    """{label value: [(theta, mean, sd, count, whole_cycles, untrusted, runs_error)]}, sorted by theta;
     points without a result skipped. μ over whole cycles of F_f where the table has it
     (summary.json's mu_whole_cycles: no bias from a fraction of a block-scale cycle), else over
     the window. `untrusted`: how many of the point's runs had a window with neither whole
-    cycles nor steady sliding (the loading from rest): their μ is no friction coefficient."""
+    cycles nor steady sliding (the loading from rest): their μ is no friction coefficient.
+    `runs_error`: the error of the mean from the runs' own error bars (sweep_summary.csv's
+    mu_runs_error, of μ over the window), None where a run has none or the table predates it."""
     out = {}
     for r in rows:
         if not r["mu_mean"]:
@@ -70,7 +72,8 @@ def curves(rows, label_key):
         sd = float(r[prefix + "_std"]) if r[prefix + "_std"] else 0.0
         out.setdefault(key, []).append(
             (float(r["theta_mean"]), float(r[prefix + "_mean"]), sd, int(r["count"]), cycles,
-             int(r.get("untrusted") or 0)))
+             int(r.get("untrusted") or 0),
+             float(r["mu_runs_error"]) if r.get("mu_runs_error") else None))
     for v in out.values():
         v.sort()
     return out
@@ -112,10 +115,16 @@ def plot(sweep_dirs, label_key: str, label_name: str, stem: str, title: str) -> 
         label = f"{label_name} = {value}" if value else ""
         label = (label + " " if label else "") + f"({seed_count(pts)})"
         ax.errorbar(th, mu, yerr=sd, marker="o", ms=4, capsize=3, lw=1, color=f"C{i}", label=label)
-        for t, m, s, n, cycles, untrusted in pts:
+        # The runs' own error (each μ's window): a thick bar without caps inside the seeds' spread.
+        own = [(p[0], p[1], p[6]) for p in pts if p[6] is not None]
+        if own:
+            ax.errorbar([o[0] for o in own], [o[1] for o in own], yerr=[o[2] for o in own], ls="none",
+                        lw=4, alpha=0.35, color=f"C{i}", capsize=0)
+        for t, m, s, n, cycles, untrusted, runs_error in pts:
             what = "mu_whole_cycles" if cycles else "mu"
             flag = f" UNTRUSTED in {untrusted} of {n} runs (loading or unsettled window)" if untrusted else ""
-            print(f"{label_name}={value or '-'} theta={t:.4g} {what}_mean={m:.6g} {what}_std={s:.3g} n={n}{flag}")
+            own_text = "" if runs_error is None else f" runs_error={runs_error:.3g}"
+            print(f"{label_name}={value or '-'} theta={t:.4g} {what}_mean={m:.6g} {what}_std={s:.3g}{own_text} n={n}{flag}")
     bad = [(p[0], p[1]) for pts in data.values() for p in pts if p[5]]
     if bad:  # a μ from the loading ramp falls as 1/θ: the paper's trend for the wrong reason
         ax.scatter([b[0] for b in bad], [b[1] for b in bad], s=160, facecolors="none", edgecolors="red",
@@ -123,6 +132,10 @@ def plot(sweep_dirs, label_key: str, label_name: str, stem: str, title: str) -> 
                    "(loading); run longer")
     whole = all(p[4] for pts in data.values() for p in pts)
     spread = " (mean ± sd over seeds)" if any(p[3] > 1 for pts in data.values() for p in pts) else ""
+    if any(p[6] is not None for pts in data.values() for p in pts):
+        ax.plot([], [], lw=4, alpha=0.35, color="gray", label="thick bar: the runs' own error\nof the mean (their windows)")
+        if not spread:
+            spread = " (thin bar: sd over seeds)"
     ax.set_xlabel("coverage θ")
     ax.set_ylabel(("μ over whole cycles of $F_f$" if whole else "friction coefficient μ") + spread)
     ax.set_title(title, fontsize=10)

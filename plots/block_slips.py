@@ -10,16 +10,16 @@ Usage: /usr/bin/python3 plots/block_slips.py RUN_DIR [RUN_DIR ...]
      slips, their period, the mean, least and largest fraction of the contacts
      in one, and how many of the window's slips fell outside every block slip.
 
-A block slip is where F_f falls through its mean over the window
-[average_from, t_end] (the crossings μ over whole cycles counts, summary.json).
-Its drop runs from F_f's peak since the previous such fall (or the window's
-start) to its trough before the next (or the window's end). Its slips are
+A block slip is a fall of F_f larger than the ringing, as the run found it
+(summary.json's block_slips, whose cycles μ over whole cycles counts; a run
+older than that list: where F_f falls through its window mean). Its drop runs
+from F_f's peak since the previous fall (or the window's start) to its trough
+before the next (or the window's end). Its slips are
 those chained in time through the drop: slips.csv's intervals (onset to
 arrest) that overlap the drop or, link by link, a slip that does, up to the
 first moment no contact slips. Its contacts are theirs, counted once. Only
 block slips wholly inside the window count. The period is the mean time
-between the falls. Meaningful where F_f is a sawtooth (θ = 0.498); where many
-small slips each cross the mean (θ = 0.04) every such crossing counts as one.
+between the falls.
 """
 import csv
 import json
@@ -58,7 +58,7 @@ def slip_clusters(slip_start, slip_end):
     return clusters
 
 
-def block_slips(t, f, slip_start, slip_end, slip_contact, contacts, t_from):
+def block_slips(t, f, slip_start, slip_end, slip_contact, contacts, t_from, found=None):
     """The block slips of F_f(t) in [t_from, t[-1]], each a dict (F_f's peak
     and trough, the span of the slips chained through the drop, how many slips
     and contacts); the falls' times; the window's mean of F_f; and which slips
@@ -66,7 +66,11 @@ def block_slips(t, f, slip_start, slip_end, slip_contact, contacts, t_from):
     keep = t >= t_from
     t, f = t[keep], f[keep]
     mean = np.trapz(f, t) / (t[-1] - t[0])
-    falls = falls_through(t, f, mean)
+    if found is None:
+        falls = falls_through(t, f, mean)
+    else:  # the run's: midway down each fall, the peak before it and the trough after
+        falls = np.array([0.5 * (b["onset"] + b["end"]) for b in found
+                          if t[0] <= 0.5 * (b["onset"] + b["end"]) <= t[-1]])
     bounds = np.concatenate(([t[0]], falls, [t[-1]]))
     clusters = slip_clusters(slip_start, slip_end)
     spans = [(slip_start[c].min(), slip_end[c].max()) for c in clusters]
@@ -117,7 +121,7 @@ def census(run: Path):
     t_from = summary["average_from"]
     rows, falls, mean, in_block = block_slips(friction["t"], friction["F_f"], slips["t_start"],
                                               slips["t_end"], slips["contact"].astype(int),
-                                              summary["contacts"], t_from)
+                                              summary["contacts"], t_from, summary.get("block_slips"))
     inside = (slips["t_start"] >= t_from) & (slips["t_end"] <= friction["t"][-1])
     outside = int((inside & ~in_block).sum())
     return summary, friction, rows, falls, mean, (outside, int(inside.sum()))

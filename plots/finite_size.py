@@ -18,9 +18,9 @@ Usage: /usr/bin/python3 plots/finite_size.py SWEEP_DIR
      limit and its drop at twice the widest L)
 
 μ of a point is μ over whole cycles of F_f (summary.json's mu_whole_cycles),
-else over the window. The period is (to − from)/(crossings − 1) of the whole
-cycles: meaningful where F_f is a sawtooth (θ = 0.498), not where many small
-slips cross the mean (θ = 0.04).
+else over the window. The period is (to − from)/(block_slips − 1) of the whole
+cycles, between the block slips the run found (older summaries: crossings of
+the window mean, meaningless where many small slips cross it, θ = 0.04).
 """
 import csv
 import json
@@ -50,14 +50,15 @@ def points(sweep_dir: Path):
         case = s["case"]
         cycles = s.get("mu_whole_cycles")
         period = None
-        if cycles and cycles["crossings"] >= 2:
-            period = (cycles["to"] - cycles["from"]) / (cycles["crossings"] - 1)
+        # Cycles between block slips; an older summary counted crossings of the mean.
+        bounds = (cycles.get("block_slips") or cycles.get("crossings") or 0) if cycles else 0
+        if bounds >= 2:
+            period = (cycles["to"] - cycles["from"]) / (bounds - 1)
         out.append({
             "nx": case["lattice"]["nx"], "ny": case["lattice"]["ny"], "nz": case["lattice"]["nz"],
             "coverage": case["interface"]["coverage"], "seed": case["interface"]["seed"],
             "mu": cycles["mu"] if cycles else s["mu"], "whole_cycles": bool(cycles),
-            "spread": s.get("F_f_spread"), "period": period, "cycles": cycles["crossings"] - 1
-            if cycles and cycles["crossings"] >= 2 else 0,
+            "spread": s.get("F_f_spread"), "period": period, "cycles": bounds - 1 if bounds >= 2 else 0,
             "wall_hours": s["wall_seconds"] / 3600, "contacts": s["contacts"],
         })
     return out

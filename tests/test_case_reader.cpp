@@ -245,6 +245,18 @@ TEST_CASE("average_from must be before t_end", "[case]") {
                       "cases/t.toml:2: run.t_end: must be > run.average_from = 0.001, got 0.0005");
 }
 
+TEST_CASE("average_from = \"auto\" is read, written back, and nothing else is a word", "[case]") {
+  const Case c = parse("[run]\nt_end = 5e-4\naverage_from = \"auto\"\n");
+  CHECK(c.run.average_auto);
+  CHECK(c.run.average_from == 0.0);  // any t_end is after it
+  CHECK(to_json(c)["run"]["average_from"] == "auto");
+  CHECK(parse(to_toml(c)).run.average_auto);
+  CHECK_FALSE(parse("[run]\naverage_from = 2e-4\n").run.average_auto);
+  REQUIRE_THROWS_WITH(parse("[run]\naverage_from = \"later\"\n"),
+                      Catch::StartsWith("cases/t.toml:2: run.average_from: must be ") &&
+                          Contains(" or \"auto\", got \"later\""));
+}
+
 TEST_CASE("coverage must give at least one contact", "[case]") {
   CHECK(parse("[lattice]\nnx = 1\nny = 1\n[interface]\ncoverage = 0.5").interface.coverage == 0.5);
   REQUIRE_THROWS_WITH(parse("[lattice]\nnx = 2\nny = 2\n[interface]\ncoverage = 0.1\n"),

@@ -131,11 +131,12 @@ TEST_CASE("cases/steady.toml reaches the exact steady-sliding mu", "[steady]") {
   const auto summary = nlohmann::json::parse(std::ifstream(options.out_dir / "summary.json"));
   INFO("mu = " << r.mu << ", exact " << exact);
   CHECK(std::abs(r.mu / exact - 1) < 5e-3);
-  // Over whole cycles of F_f, from friction.csv's samples: the same steady value.
-  const auto& cycles = summary.at("mu_whole_cycles");
-  CHECK(std::abs(cycles.at("mu").get<double>() / exact - 1) < 5e-3);
-  CHECK(cycles.at("from").get<double>() >= c.run.average_from);
-  CHECK(cycles.at("to").get<double>() <= c.run.t_end);
+  // Steady: no block slip, so no whole cycles, and F_f's error bar (from its
+  // autocorrelation) far inside the distance to the exact value allowed.
+  CHECK(summary.at("mu_whole_cycles").is_null());
+  CHECK(summary.at("regime").at("kind") == "steady sliding");
+  CHECK(summary.at("mu_error_from") == "autocorrelation");
+  CHECK(r.mu_error < 1e-4 * exact);
   CHECK(std::abs(r.energy_residual) < 1e-5);
 }
 

@@ -20,7 +20,12 @@ namespace {
 Summary full_summary() {
   Summary s;
   s.mu = 5.25;
-  s.mu_whole_cycles = WholeCycleMu{5.5, 1.2e-3, 2.9e-3, 7};
+  s.mu_error = 0.0625;
+  s.mu_error_from = "block cycles";
+  s.average_auto = true;
+  s.window_samples = 2001;
+  s.mu_whole_cycles = WholeCycleMu{5.5, 1.2e-3, 2.9e-3, 7, 2.8e-4, 0.03125};
+  s.block_slips = {{1.2e-3, 1.21e-3, 2.5e-4}, {1.48e-3, 1.5e-3, 2.25e-4}};
   s.F_f_spread = 0.125;
   s.regime = WindowRegime{Regime::stick_slip, 0.015, 0.02};
   s.theta = 0.0089;
@@ -71,7 +76,17 @@ TEST_CASE("a summary reads back field for field through its JSON", "[summary]") 
   CHECK(b.mu_whole_cycles->mu == 5.5);
   CHECK(b.mu_whole_cycles->from == 1.2e-3);
   CHECK(b.mu_whole_cycles->to == 2.9e-3);
-  CHECK(b.mu_whole_cycles->crossings == 7);
+  CHECK(b.mu_whole_cycles->block_slips == 7);
+  CHECK(b.mu_whole_cycles->period == 2.8e-4);
+  CHECK(b.mu_whole_cycles->error == 0.03125);
+  CHECK(b.mu_error == 0.0625);
+  CHECK(b.mu_error_from == "block cycles");
+  CHECK(b.average_auto);
+  CHECK(b.window_samples == 2001);
+  REQUIRE(b.block_slips.size() == 2);
+  CHECK(b.block_slips[1].onset == 1.48e-3);
+  CHECK(b.block_slips[1].end == 1.5e-3);
+  CHECK(b.block_slips[1].drop == 2.25e-4);
   CHECK(b.F_f_spread == 0.125);
   REQUIRE(b.regime);
   CHECK(b.regime->kind == Regime::stick_slip);
@@ -79,10 +94,12 @@ TEST_CASE("a summary reads back field for field through its JSON", "[summary]") 
   CHECK(b.regime->trend_share == 0.02);
   CHECK(j["regime"]["mu_trusted"] == true);
   CHECK(mu_warning(b).empty());
+  CHECK(j["regime"]["fix"].is_null());
   b.regime->kind = Regime::unsettled;
   CHECK_THAT(mu_warning(b), Catch::StartsWith("mu is not a friction coefficient yet: the "
                                               "averaging window [0.001, 0.003] s holds no whole "
                                               "cycle"));
+  CHECK_THAT(to_json(b)["regime"]["fix"].get<std::string>(), Catch::StartsWith("a longer window"));
   CHECK(b.F_N == a.F_N);
   CHECK(b.contacts == 2);
   CHECK(b.t_end == a.t_end);
@@ -161,8 +178,11 @@ TEST_CASE("a summary with a field missing or of the wrong type names it", "[summ
   j["synchronization"].erase("lag_mean");
   CHECK(message(j) == "synchronization: no \"lag_mean\"");
   j = good;
-  j["mu_whole_cycles"]["crossings"] = "7";
-  CHECK(message(j) == "mu_whole_cycles: \"crossings\" is not a number");
+  j["mu_whole_cycles"]["block_slips"] = "7";
+  CHECK(message(j) == "mu_whole_cycles: \"block_slips\" is not a number");
+  j = good;
+  j["block_slips"][0].erase("drop");
+  CHECK(message(j) == "block_slips: no \"drop\"");
 }
 
 TEST_CASE("read_summary: none, cut short, not a summary, and a written one", "[summary]") {

@@ -146,6 +146,13 @@ class Run:
         return None if self.summary is None else self.summary["mu"]
 
     @property
+    def mu_error(self):
+        """The standard error of μ from its own window (summary["mu_error"]:
+        batch means over block cycles, or F_f's autocorrelation; not a spread
+        over seeds); None if unfinished or not to be had."""
+        return None if self.summary is None else self.summary.get("mu_error")
+
+    @property
     def mu_trusted(self):
         """Whether μ is a friction coefficient: its window holds whole slip cycles
         or steady sliding (summary["regime"]); None if unfinished or not judged."""
@@ -174,7 +181,10 @@ class Run:
             regime = s.get("regime")
             judged = "" if regime is None else (
                 f" ({regime['kind']}, {'trusted' if regime['mu_trusted'] else 'not a friction coefficient'})")
-            head = (f"μ = {s['mu']:.6g}{judged} over [{s['average_from']:.6g}, {s['t_end']:.6g}] s; "
+            error = s.get("mu_error")
+            pm = "" if error is None else f" ± {error:.2g}"
+            auto = " (auto)" if s.get("average_from_auto") else ""
+            head = (f"μ = {s['mu']:.6g}{pm}{judged} over [{s['average_from']:.6g}, {s['t_end']:.6g}] s{auto}; "
                     f"t_end {s['t_end']:.6g} s, method {s['solver']['method']}")
         return f"Run({where}\n  {head}\n  tables: {', '.join(self._shapes())})"
 
@@ -208,8 +218,15 @@ class Run:
             variables["vy"] = ((t, "contact"), tr.vy, {"units": "m/s", "long_name": "contact y-velocity"})
         attrs = {}
         if self.summary is not None:
-            attrs = {"mu": self.summary["mu"], "average_from": self.summary["average_from"],
-                     "t_end": self.summary["t_end"], "F_N": self.summary["F_N"]}
+            s = self.summary
+            attrs = {"mu": s["mu"], "average_from": s["average_from"],
+                     "t_end": s["t_end"], "F_N": s["F_N"], "theta": s["theta"]}
+            # netCDF attributes hold no None: what is undefined is left out.
+            if s.get("mu_error") is not None:
+                attrs["mu_error"] = s["mu_error"]
+            if s.get("regime") is not None:
+                attrs["regime"] = s["regime"]["kind"]
+                attrs["mu_trusted"] = int(s["regime"]["mu_trusted"])
         return xarray.Dataset(variables, coords=coords, attrs=attrs)
 
 

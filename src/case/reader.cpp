@@ -340,6 +340,30 @@ Rule boolean(bool OutputParams::*m) {
           "true, false", [=](const Case& c) { return nlohmann::json(c.output.*m); }};
 }
 
+// run.average_from: a time, or "auto" (found from F_f at the end of the run).
+Rule average_from_rule() {
+  Rule rule = real(&Case::run, &RunParams::average_from, kNonNegative);
+  const auto read_time = rule.apply;
+  rule.apply = [=](Reader& r, const toml::node& n, const std::string& key, Case& c) {
+    if (n.is_string()) {
+      if (r.string(n, key) != "auto")
+        r.fail(n, key,
+               "must be " + kNonNegative.text() + " or \"auto\", got \"" +
+                   printable(r.string(n, key)) + "\"");
+      c.run.average_auto = true;
+      c.run.average_from = 0.0;
+      return;
+    }
+    read_time(r, n, key, c);
+    c.run.average_auto = false;
+  };
+  rule.allowed = kNonNegative.text() + ", \"auto\"";
+  rule.write = [](const Case& c) {
+    return c.run.average_auto ? nlohmann::json("auto") : nlohmann::json(c.run.average_from);
+  };
+  return rule;
+}
+
 // "auto" and the names of a table's rows (case/methods.hpp), as read_row takes them.
 template <class Row>
 std::string row_names(std::span<const Row> rows) {
@@ -418,8 +442,10 @@ const std::vector<Entry>& schema() {
        "v: speed of the driving plate"},
       {"run", "t_end", real(&Case::run, &RunParams::t_end, kPositive), "s",
        "end of the run (a restart may raise it)"},
-      {"run", "average_from", real(&Case::run, &RunParams::average_from, kNonNegative), "s",
-       "t_avg: μ averages F_f over [t_avg, t_end]; must be < t_end"},
+      {"run", "average_from", average_from_rule(), "s",
+       "t_avg: μ averages F_f over [t_avg, t_end]; must be < t_end. \"auto\": from where F_f's "
+       "loading transient ends, found from F_f itself at the end of the run (its first block "
+       "slip, or later where the first cycles bias the mean)"},
       {"run", "initial",
        choice(&Case::run, &RunParams::initial, InitialState::rest, InitialState::sliding), "",
        "start at rest (u = w = 0) or sliding (w_x = v everywhere)"},

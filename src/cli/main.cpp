@@ -121,8 +121,9 @@ int run_command(const RunArguments& a) {
       try {
         const Summary r = run_case(c, options);
         std::printf(
-            "mu = %.6f  (theta = %.4f, %ld contacts, energy residual %.2e, %ld steps, %.1f s)\n",
-            r.mu, r.theta, r.contacts, r.energy_residual, r.solver_stats.steps, r.wall_seconds);
+            "mu = %s  (theta = %.4f, %ld contacts, energy residual %.2e, %ld steps, %.1f s)\n",
+            mu_text(r).c_str(), r.theta, r.contacts, r.energy_residual, r.solver_stats.steps,
+            r.wall_seconds);
         std::printf("outputs in %s\n", options.out_dir.string().c_str());
         std::fflush(stdout);  // the warnings after the μ they are about, also through pipes
         for (const auto& w : r.warnings) std::fprintf(stderr, "warning: %s\n", w.text.c_str());
@@ -199,15 +200,15 @@ void print_untrusted(const std::vector<stickslip::SweepPoint>& points,
       continue;  // not a finished point: sweep.csv says so
     }
     if (s && s->regime && !s->regime->mu_trusted())
-      names.push_back(p.name + " (" + stickslip::to_string(s->regime->kind) + ")");
+      names.push_back(p.name + " (" + stickslip::to_string(s->regime->kind) +
+                      "): the fix: " + stickslip::regime_fix(*s));
   }
   if (names.empty()) return;
-  std::printf("%zu of them have a mu that is not a friction coefficient:", names.size());
-  for (std::size_t i = 0; i < names.size(); ++i)
-    std::printf("%s %s", i ? "," : "", names[i].c_str());
   std::printf(
-      "\n  (a window on the loading ramp, or no whole cycle: start the average later "
-      "or run longer; sweep.csv's regime column)\n");
+      "%zu of them have a mu that is not a friction coefficient (sweep.csv's regime "
+      "column):\n",
+      names.size());
+  for (const auto& name : names) std::printf("  %s\n", name.c_str());
 }
 
 int sweep_shard(const stickslip::Sweep& sweep, const std::vector<stickslip::SweepPoint>& points,

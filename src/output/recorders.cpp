@@ -57,47 +57,80 @@ class ContactsRecorder final : public Recorder {
 
 // friction: F_f and F_f/F_N at the output times. At the end, from these
 // samples, kept in memory as they are recorded (so it costs nothing during
-// the run): μ over whole cycles of F_f and F_f's relative spread
-// (core/cycles.hpp). A restart reads back the samples before its
-// checkpoint, the only time the table is read.
+// the run): what F_f does in the averaging window, μ over whole cycles and
+// the error of the mean (core/cycles.hpp). With run.average_from = "auto"
+// the window's start is found there too, and μ is the friction impulse from
+// it: the table then has the impulse ∫F_f dt as a column, which a restart
+// reads back with the samples before its checkpoint (the only time the table
+// is read).
 class FrictionRecorder final : public Recorder {
  public:
   static constexpr const char* kTable = run_table::kFriction;
   static constexpr const char* kForce = "F_f";
+  static constexpr const char* kImpulse = "impulse";
   explicit FrictionRecorder(const RecorderSetup& s)
       : system_(s.system),
-        table_(open_table(s, {kTable, {time_column(), real(kForce, "N"), real("mu_inst", "1")}})),
+        table_(open_table(s, spec(s.c.run.average_auto))),
         normal_force_(s.system.normal_force()),
-        average_from_(s.c.run.average_from) {
+        average_from_(s.c.run.average_from),
+        average_auto_(s.c.run.average_auto),
+        driven_(s.c.drive.velocity > 0),
+        impulse_index_(
+            static_cast<std::size_t>(s.system.quadrature_index(System::friction_impulse))) {
     if (!s.resume_at) return;
     table_->flush();  // the cut back reaches the file before it is read
     const TraceTable before = read_run_table(s.dir, kTable);
     t_ = before.t;
     friction_ = before.column(kForce);
+    if (average_auto_) impulse_ = before.column(kImpulse);
   }
   void record(double t, std::span<const double> y) override {
     const double ff = system_.friction_force(t, y);
-    const double row[3] = {t, ff, ff / normal_force_};
-    table_->append(row);
+    const double row[4] = {t, ff, ff / normal_force_, y[impulse_index_]};
+    table_->append(std::span<const double>(row, average_auto_ ? 4 : 3));
     t_.push_back(t);
     friction_.push_back(ff);
+    if (average_auto_) impulse_.push_back(y[impulse_index_]);
   }
   void flush() override { table_->flush(); }
-  void finish(double, std::span<const double>, Summary& summary) override {
-    if (std::count_if(t_.begin(), t_.end(), [&](double ti) { return ti >= average_from_; }) < 2)
-      return;
-    const CycleMean cycles = whole_cycle_mean(t_, friction_, average_from_);
-    summary.mu_whole_cycles =
-        WholeCycleMu{cycles.mean / normal_force_, cycles.from, cycles.to, cycles.crossings};
-    summary.F_f_spread = relative_spread(t_, friction_, average_from_);
-    summary.regime = classify_window(t_, friction_, average_from_, cycles, *summary.F_f_spread);
+  void finish(double t_end, std::span<const double> y, Summary& summary) override {
+    if (average_auto_ && !t_.empty()) {
+      // The window starts at an output time, where the impulse is known exactly.
+      const double from = settled_from(t_, friction_);
+      const auto k =
+          static_cast<std::size_t>(std::lower_bound(t_.begin(), t_.end(), from) - t_.begin());
+      if (k < t_.size() && t_[k] < t_end) {
+        average_from_ = t_[k];
+        summary.average_from = average_from_;
+        summary.mu = (y[impulse_index_] - impulse_[k]) / ((t_end - average_from_) * normal_force_);
+      }
+    }
+    const FrictionWindow w = analyse_window(t_, friction_, average_from_, driven_);
+    summary.average_auto = average_auto_;
+    summary.mu_error = w.error / normal_force_;
+    summary.mu_error_from = w.error_from;
+    summary.window_samples = w.samples;
+    if (w.samples >= 2) summary.F_f_spread = w.spread;
+    const CycleMean& c = w.cycles;
+    if (c.block_slips >= 2)
+      summary.mu_whole_cycles = WholeCycleMu{
+          c.mean / normal_force_, c.from, c.to, c.block_slips, c.period, c.error / normal_force_};
+    summary.regime = w.regime;
+    summary.block_slips = find_block_slips(t_, friction_);
   }
 
  private:
+  static TableSpec spec(bool with_impulse) {
+    TableSpec spec{kTable, {time_column(), real(kForce, "N"), real("mu_inst", "1")}};
+    if (with_impulse) spec.columns.push_back(real(kImpulse, "N s", kExact));
+    return spec;
+  }
   const System& system_;
   std::unique_ptr<Table> table_;
   double normal_force_, average_from_;
-  std::vector<double> t_, friction_;  // every sample: t [s], F_f [N]
+  bool average_auto_, driven_;
+  std::size_t impulse_index_;
+  std::vector<double> t_, friction_, impulse_;  // every sample: t [s], F_f [N], ∫F_f dt [N s]
 };
 
 // traces: the traced contacts' in-plane velocities at the output times (in

@@ -79,6 +79,9 @@ auto inside(const char* name, F&& read) {
 nlohmann::json to_json(const Summary& s) {
   nlohmann::json j = {
       {"mu", number_or_null(s.mu)},
+      {"mu_error", number_or_null(s.mu_error)},
+      {"mu_error_from",
+       s.mu_error_from.empty() ? nlohmann::json() : nlohmann::json(s.mu_error_from)},
       {"mu_whole_cycles", nullptr},
       {"F_f_spread", s.F_f_spread ? number_or_null(*s.F_f_spread) : nlohmann::json()},
       {"theta", s.theta},
@@ -86,6 +89,8 @@ nlohmann::json to_json(const Summary& s) {
       {"contacts", s.contacts},
       {"t_end", s.t_end},
       {"average_from", s.average_from},
+      {"average_from_auto", s.average_auto},
+      {"window_samples", s.window_samples},
       {"wall_seconds", s.wall_seconds},
       {"energy_residual", number_or_null(s.energy_residual)},
       {"energy_audit_bound", s.energy_audit_bound},
@@ -105,10 +110,16 @@ nlohmann::json to_json(const Summary& s) {
     j["regime"] = {{"kind", to_string(r->kind)},
                    {"mu_trusted", r->mu_trusted()},
                    {"drift", number_or_null(r->drift)},
-                   {"trend_share", number_or_null(r->trend_share)}};
+                   {"trend_share", number_or_null(r->trend_share)},
+                   {"transient_ends", number_or_null(r->transient_ends)},
+                   {"fix", r->mu_trusted() ? nlohmann::json() : nlohmann::json(regime_fix(s))}};
+  auto& slips = j["block_slips"] = nlohmann::json::array();
+  for (const auto& b : s.block_slips)
+    slips.push_back({{"onset", b.onset}, {"end", b.end}, {"drop", b.drop}});
   if (const auto& c = s.mu_whole_cycles)
     j["mu_whole_cycles"] = {
-        {"mu", c->mu}, {"from", c->from}, {"to", c->to}, {"crossings", c->crossings}};
+        {"mu", c->mu}, {"error", number_or_null(c->error)}, {"from", c->from},
+        {"to", c->to}, {"block_slips", c->block_slips},     {"period", number_or_null(c->period)}};
   if (const auto& e = s.events) {
     nlohmann::json per_contact = nlohmann::json::array();
     for (const auto& c : e->per_contact) per_contact.push_back(to_json(c));
@@ -125,6 +136,12 @@ nlohmann::json to_json(const Summary& s) {
 Summary summary_from_json(const nlohmann::json& j) {
   Summary s;
   s.mu = number(j, "mu");
+  // Older summaries have no error bar, no window count, no "auto".
+  s.mu_error = j.contains("mu_error") ? number(j, "mu_error") : std::nan("");
+  if (const auto* from = present(j, "mu_error_from")) s.mu_error_from = from->get<std::string>();
+  if (const auto* a = present(j, "average_from_auto")) s.average_auto = a->get<bool>();
+  s.window_samples =
+      j.contains("window_samples") ? static_cast<long>(number(j, "window_samples")) : 0;
   s.theta = number(j, "theta");
   s.F_N = number(j, "F_N");
   s.contacts = static_cast<long>(number(j, "contacts"));
@@ -152,20 +169,35 @@ Summary summary_from_json(const nlohmann::json& j) {
   s.case_json = field(j, "case");
   if (const auto* c = present(j, "mu_whole_cycles"))
     s.mu_whole_cycles = inside("mu_whole_cycles", [&] {
-      return WholeCycleMu{number(*c, "mu"), number(*c, "from"), number(*c, "to"),
-                          static_cast<long>(number(*c, "crossings"))};
+      // Before block slips were found, cycles were crossings of the mean:
+      // such a summary has no block_slips, period or error (0, NaN, NaN).
+      WholeCycleMu cycles{number(*c, "mu"), number(*c, "from"), number(*c, "to"), 0,
+                          std::nan(""),     std::nan("")};
+      if (c->contains("block_slips")) {
+        cycles.block_slips = static_cast<long>(number(*c, "block_slips"));
+        cycles.period = number(*c, "period");
+        cycles.error = number(*c, "error");
+      }
+      return cycles;
     });
+  if (const auto* slips = present(j, "block_slips"))  // absent before block slips were found
+    for (const auto& b : *slips)
+      s.block_slips.push_back(inside("block_slips", [&] {
+        return BlockSlip{number(b, "onset"), number(b, "end"), number(b, "drop")};
+      }));
   if (const auto* r = present(j, "regime"))  // absent before windows were judged
     s.regime = inside("regime", [&] {
       WindowRegime regime;
       const auto kind = field(*r, "kind").get<std::string>();
       bool known = false;
-      for (Regime k :
-           {Regime::stick_slip, Regime::steady_sliding, Regime::loading, Regime::unsettled})
+      for (Regime k : {Regime::stick_slip, Regime::steady_sliding, Regime::loading,
+                       Regime::unsettled, Regime::undersampled, Regime::not_driven})
         if (kind == to_string(k)) regime.kind = k, known = true;
       if (!known) throw std::invalid_argument("\"kind\": no regime \"" + kind + "\"");
       regime.drift = number(*r, "drift");
       regime.trend_share = number(*r, "trend_share");
+      regime.transient_ends =
+          r->contains("transient_ends") ? number(*r, "transient_ends") : std::nan("");
       return regime;
     });
   if (const auto* f = present(j, "F_f_spread")) {
@@ -194,22 +226,85 @@ Summary summary_from_json(const nlohmann::json& j) {
   return s;
 }
 
+std::string mu_text(const Summary& s) {
+  char text[160];
+  if (std::isfinite(s.mu_error))
+    std::snprintf(text, sizeof text, "%.6f ± %.2g", s.mu, s.mu_error);
+  else
+    std::snprintf(text, sizeof text, "%.6f", s.mu);
+  std::string out = text;
+  std::snprintf(text, sizeof text, " over [%.4g, %.4g] s%s", s.average_from, s.t_end,
+                s.average_auto ? " (auto)" : "");
+  return out + text;
+}
+
+std::string regime_fix(const Summary& s) {
+  if (!s.regime || s.regime->mu_trusted()) return {};
+  const WindowRegime& r = *s.regime;
+  char text[400];
+  switch (r.kind) {
+    case Regime::not_driven:
+      return "this drive cannot slide: drive.velocity is 0; set it > 0";
+    case Regime::undersampled:
+      std::snprintf(text, sizeof text,
+                    "a finer output.interval: the window holds %ld samples of F_f%s",
+                    s.window_samples,
+                    s.mu_whole_cycles && s.mu_whole_cycles->period > 0
+                        ? ", too few per block cycle to see its rise and fall"
+                        : "");
+      return text;
+    case Regime::loading:
+      if (!std::isnan(r.transient_ends)) {
+        std::snprintf(text, sizeof text,
+                      "a later run.average_from: the loading transient ends at %.4g s; start the "
+                      "average there or later, or set run.average_from = \"auto\"%s",
+                      r.transient_ends,
+                      r.transient_ends >= s.t_end * 0.5 ? ", with a longer run.t_end" : "");
+        return text;
+      }
+      return "a longer run.t_end: F_f is still on its loading ramp at the end of the run, no "
+             "block slip yet";
+    case Regime::unsettled:
+      if (s.mu_whole_cycles)
+        return "a longer window (run.t_end, or an earlier run.average_from past the loading "
+               "transient): it holds fewer than two block slips";
+      return "a longer window (run.t_end, or an earlier run.average_from past the loading "
+             "transient): it holds fewer than two block slips, and F_f is neither steady nor a "
+             "ramp";
+    default:
+      return {};
+  }
+}
+
 std::string mu_warning(const Summary& s) {
   if (!s.regime || s.regime->mu_trusted()) return {};
   char window[96];
   std::snprintf(window, sizeof window, "the averaging window [%.4g, %.4g] s", s.average_from,
                 s.t_end);
-  const std::string advice =
-      "; run longer (run.t_end) and start the average later (run.average_from)";
-  if (s.regime->kind == Regime::loading) {
-    char rise[64];
-    std::snprintf(rise, sizeof rise, "%.0f %%", 100 * s.regime->drift);
-    return "mu is not a friction coefficient: in " + std::string(window) +
-           " F_f rises as a ramp (by " + rise +
-           ") with no whole slip cycle, the block still loading" + advice;
+  const std::string fix = "; the fix: " + regime_fix(s);
+  const WindowRegime& r = *s.regime;
+  switch (r.kind) {
+    case Regime::not_driven:
+      return "mu is not a friction coefficient: nothing slides" + fix;
+    case Regime::undersampled:
+      return "mu cannot be judged: " + std::string(window) + " is sampled too coarsely" + fix;
+    case Regime::loading:
+      if (!std::isnan(r.transient_ends))
+        return "mu is not a friction coefficient: " + std::string(window) +
+               " starts on the loading ramp from rest (F_f rising, no block slip yet), which "
+               "biases mu low" +
+               fix;
+      {
+        char rise[64];
+        std::snprintf(rise, sizeof rise, "%.0f %%", 100 * r.drift);
+        return "mu is not a friction coefficient: in " + std::string(window) +
+               " F_f rises as a ramp (by " + rise +
+               ") with no block slip, the block still loading" + fix;
+      }
+    default:
+      return "mu is not a friction coefficient yet: " + std::string(window) +
+             " holds no whole cycle of F_f and F_f is not steady" + fix;
   }
-  return "mu is not a friction coefficient yet: " + std::string(window) +
-         " holds no whole cycle of F_f and F_f is not steady" + advice;
 }
 
 std::string tolerance_warning(double rtol) {

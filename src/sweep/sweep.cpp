@@ -69,9 +69,24 @@ std::string number(const std::optional<double>& x) {
 // the synchronization's only when some point has one. regime: what F_f does
 // in the window (core/cycles.hpp); μ is a friction coefficient only in
 // "stick-slip" and "steady sliding".
-constexpr const char* kResultColumns[] = {
-    "status",   "mu",  "mu_whole_cycles", "regime", "F_f_spread",      "theta",
-    "contacts", "F_N", "energy_residual", "slips",  "mean_recurrence", "slipping_fraction"};
+// mu_error: the standard error of the point's own μ (from its window,
+// summary.json's mu_error), not a spread over seeds; average_from: where its
+// window started (found by the run with run.average_from = "auto").
+constexpr const char* kResultColumns[] = {"status",
+                                          "mu",
+                                          "mu_error",
+                                          "mu_whole_cycles",
+                                          "mu_whole_cycles_error",
+                                          "average_from",
+                                          "regime",
+                                          "F_f_spread",
+                                          "theta",
+                                          "contacts",
+                                          "F_N",
+                                          "energy_residual",
+                                          "slips",
+                                          "mean_recurrence",
+                                          "slipping_fraction"};
 constexpr const char* kSyncColumns[] = {"slip_rate_ratio",     "lag_mean",   "lag_min",  "lag_max",
                                         "coincident_fraction", "xcorr_peak", "xcorr_lag"};
 constexpr const char* kRunColumns[] = {"steps",        "rhs_explicit", "rhs_implicit",
@@ -249,7 +264,12 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
       }
     row["status"] = "finished";
     row["mu"] = number(s.mu);
-    if (s.mu_whole_cycles) row["mu_whole_cycles"] = number(s.mu_whole_cycles->mu);
+    if (std::isfinite(s.mu_error)) row["mu_error"] = number(s.mu_error);
+    if (const auto& c = s.mu_whole_cycles) {
+      row["mu_whole_cycles"] = number(c->mu);
+      if (std::isfinite(c->error)) row["mu_whole_cycles_error"] = number(c->error);
+    }
+    row["average_from"] = number(s.average_from);
     if (s.regime) row["regime"] = to_string(s.regime->kind);
     row["F_f_spread"] = number(s.F_f_spread);
     row["theta"] = number(s.theta);
@@ -284,6 +304,7 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
     if (sweep.axes[i].key == sweep.average_over) avg_axis = i;
   struct Group {
     std::vector<double> mu, mu_cycles, theta;  // of the finished points
+    std::vector<double> mu_error;              // their own errors, where they have one
     long untrusted = 0;  // finished points whose μ is no friction coefficient (loading, ...)
   };
   std::map<std::vector<std::size_t>, Group> groups;  // axis value indices -> points
@@ -301,6 +322,7 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
     if (summaries[i] && std::isfinite(summaries[i]->mu)) {
       g.mu.push_back(summaries[i]->mu);
       g.theta.push_back(summaries[i]->theta);
+      g.mu_error.push_back(summaries[i]->mu_error);
       if (const auto& r = summaries[i]->regime; r && !r->mu_trusted()) ++g.untrusted;
       if (const auto& cycles = summaries[i]->mu_whole_cycles) g.mu_cycles.push_back(cycles->mu);
     }
@@ -321,7 +343,20 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
     if (a != avg_axis) summary << (first ? "" : ",") << sweep.axes[a].key, first = false;
   summary << (first ? "" : ",")
           << "theta_mean,mu_mean,mu_std,mu_sem,count,"
-             "mu_whole_cycles_mean,mu_whole_cycles_std,mu_whole_cycles_sem,untrusted\n";
+             "mu_whole_cycles_mean,mu_whole_cycles_std,mu_whole_cycles_sem,untrusted,"
+             "mu_runs_error\n";
+  // mu_sem is the seeds' spread over √count; mu_runs_error is what the
+  // points' own error bars give mu_mean (√Σ e² / count), only when every
+  // finished point has one.
+  auto runs_error = [&](const std::vector<double>& errors) {
+    double sum = 0;
+    for (double e : errors) {
+      if (!std::isfinite(e)) return std::string();
+      sum += e * e;
+    }
+    return errors.empty() ? std::string()
+                          : num(std::sqrt(sum) / static_cast<double>(errors.size()));
+  };
   for (const auto& key : order) {
     std::size_t k = 0;
     for (std::size_t a = 0; a < sweep.axes.size(); ++a)
@@ -333,7 +368,7 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
             << ','
             // Only when every finished point has it: never a mean over fewer points than count.
             << (g.mu_cycles.size() == g.mu.size() ? statistics(g.mu_cycles) : ",,") << ','
-            << g.untrusted << '\n';
+            << g.untrusted << ',' << runs_error(g.mu_error) << '\n';
   }
   write_atomically(out_dir / kSweepSummaryFile, [&](std::ostream& out) { out << summary.str(); });
   return finished;
@@ -439,7 +474,7 @@ SweepOutcome run_sweep(const Sweep& sweep, const std::vector<SweepPoint>& points
     if (code == 0) {
       const auto s = read_summary(dir);
       char buf[128];
-      std::snprintf(buf, sizeof buf, "mu = %.6f (%.1f s)", s ? s->mu : NAN,
+      std::snprintf(buf, sizeof buf, "mu = %s (%.1f s)", s ? mu_text(*s).c_str() : "?",
                     s ? s->wall_seconds : NAN);
       line += buf;
       // As the point's own run says on its stderr: a μ that is no friction

@@ -86,6 +86,9 @@ struct DriveParams {
 struct RunParams {
   double t_end = 5e-3;         // [s]
   double average_from = 1e-3;  // t_avg [s]: μ averages F_f over [t_avg, t_end]
+  // average_from = "auto": t_avg is found at the end, where F_f's loading
+  // transient ends (core/cycles.hpp's settled_from); average_from is 0 then.
+  bool average_auto = false;
   InitialState initial = InitialState::rest;
   double checkpoint_every = 0.0;  // [s] of simulated time between checkpoints; 0: none
 };

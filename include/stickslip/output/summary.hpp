@@ -18,12 +18,14 @@ namespace stickslip {
 
 inline constexpr const char* kSummaryFile = "summary.json";
 
-// μ between the first and the last downward crossing of F_f through its
-// window mean (core/cycles.hpp).
+// μ over whole block cycles: between the first and the last block slip's
+// onset in the window (core/cycles.hpp).
 struct WholeCycleMu {
   double mu = 0.0;
   double from = 0.0, to = 0.0;  // [s]
-  long crossings = 0;
+  long block_slips = 0;         // onsets in the window, ≥ 2
+  double period = 0.0;          // mean time between them [s]
+  double error = 0.0;           // standard error of mu from the cycles' means; NaN below two cycles
 };
 
 // Per-contact statistics of the watched contacts over the averaging window.
@@ -49,10 +51,22 @@ struct SummaryWarning {
 
 struct Summary {
   double mu = 0.0;  // over [average_from, t_end], from the friction impulse
-  std::optional<WholeCycleMu> mu_whole_cycles;
+  // Its standard error (NaN where it cannot be had: fewer than two pieces
+  // between block slips, or too few samples) and how it was estimated
+  // ("block cycles", "autocorrelation"; core/cycles.hpp). Not the spread of
+  // seeds: a sweep gives that.
+  double mu_error = 0.0;
+  std::string mu_error_from;
+  bool average_auto = false;  // average_from was found from F_f (run.average_from = "auto")
+  long window_samples = 0;    // F_f's output samples in the window
+  std::optional<WholeCycleMu> mu_whole_cycles;  // with two block slips or more in the window
+  // The block slips of the whole run, found from F_f (core/cycles.hpp):
+  // where cycles are counted, for plots/block_slips.py and anyone else.
+  std::vector<BlockSlip> block_slips;
   std::optional<double> F_f_spread;  // sd/mean of F_f's samples in the window
   // What F_f does in the window (core/cycles.hpp); whether μ is a
-  // friction coefficient. Empty with fewer than two samples in the window.
+  // friction coefficient, and what would fix it if not. Empty only for runs
+  // that record no friction table.
   std::optional<WindowRegime> regime;
   double theta = 0.0;
   double F_N = 0.0;  // [N]
@@ -77,6 +91,13 @@ struct Summary {
 };
 
 nlohmann::json to_json(const Summary& s);
+// μ as a terminal line shows it: "4.3645 ± 0.058 over [0.01, 0.04] s", the
+// error omitted where there is none, "(auto)" after a window found from F_f.
+std::string mu_text(const Summary& s);
+// What would make the window's μ a friction coefficient ("a finer
+// output.interval: ...", "a later run.average_from: ...", "this drive cannot
+// slide: ..."); empty if it is one, or its window was not judged.
+std::string regime_fix(const Summary& s);
 // The warning for a μ that is not a friction coefficient (a window on the
 // loading ramp, or less than a cycle), naming what to change; empty if μ is
 // one, or its window was not judged.
