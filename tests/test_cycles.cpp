@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <csignal>
+#include <filesystem>
 #include <stdexcept>
 #include <vector>
 
@@ -382,4 +384,34 @@ TEST_CASE("a run from rest: a window on its loading is flagged, a later one of s
                             .epsilon(1e-9));
   // Without "auto" the table has no impulse column: nothing is paid for it.
   CHECK_THROWS(read_run_table(dir.path / "late", "friction").column("impulse"));
+}
+
+TEST_CASE(
+    "average_from = \"auto\" across a restart: the impulse column is read back, the window found "
+    "the same",
+    "[slow][analysis][cycles][restart]") {
+  test::TempDir dir("stickslip_test_auto_restart");
+  Case c;
+  c.lattice = {6, 6, 4, 1e-4};
+  c.interface.coverage = 0.5;
+  c.output.events = ContactSelection::none;
+  c.run.t_end = 10e-3;
+  c.run.average_auto = true;
+  c.run.average_from = 0.0;
+  c.run.checkpoint_every = 3e-3;
+  const Summary full = run_case(c, {dir.path / "full", false, true});
+
+  // Stopped once its first checkpoint (3 ms, before the first block slip) is written.
+  RunOptions options{dir.path / "part", false, true};
+  const auto checkpoint = dir.path / "part" / "checkpoint.bin";
+  options.stop_signal = [&] { return std::filesystem::exists(checkpoint) ? SIGTERM : 0; };
+  CHECK_THROWS_AS(run_case(c, options), Interrupted);
+  options.stop_signal = [] { return 0; };
+  options.restart = true;
+  const Summary part = run_case(c, options);
+  CHECK(part.average_auto);
+  CHECK(part.block_slips.size() == full.block_slips.size());
+  // The restart changes the steps, not the physics: the same onset, to the output interval.
+  CHECK(part.average_from == Approx(full.average_from).margin(c.output.interval * 1.01));
+  CHECK(part.mu == Approx(full.mu).epsilon(1e-4));
 }

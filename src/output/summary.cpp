@@ -247,8 +247,8 @@ std::string regime_fix(const Summary& s) {
       return "this drive cannot slide: drive.velocity is 0; set it > 0";
     case Regime::undersampled:
       std::snprintf(text, sizeof text,
-                    "a finer output.interval: the window holds %ld samples of F_f%s",
-                    s.window_samples,
+                    "a finer output.interval: the window holds %ld sample%s of F_f%s",
+                    s.window_samples, s.window_samples == 1 ? "" : "s",
                     s.mu_whole_cycles && s.mu_whole_cycles->period > 0
                         ? ", too few per block cycle to see its rise and fall"
                         : "");
