@@ -157,6 +157,31 @@ TEST_CASE("an unknown command-line option is reported in one line", "[cli]") {
   CHECK(lines(r.err) == 1);
 }
 
+TEST_CASE("a misspelt option or command names the nearest one and the subcommand's help", "[cli]") {
+  Sandbox box;
+  const fs::path file = box.write("tiny.toml", kTiny);
+  const auto before = box.snapshot();
+  // CLI11 alone says "The following arguments were not expected: 1 --thread"
+  // and points to the program's help, not the subcommand's.
+  const Result thread = box.run({"run", file.string(), "--thread", "1"});
+  CHECK(thread.code == 2);
+  CHECK(thread.err ==
+        "error: unknown option '--thread' (did you mean '--threads'?) (see stickslip run "
+        "--help)\n");
+  const Result jobs = box.run({"sweep", file.string(), "--job", "2"});
+  CHECK(jobs.code == 2);
+  CHECK_THAT(jobs.err, Contains("(did you mean '--jobs'?) (see stickslip sweep --help)"));
+  // A swap of two letters is one typo; CLI11 alone: "A subcommand is required".
+  const Result command = box.run({"rnu", file.string()});
+  CHECK(command.code == 2);
+  CHECK(command.err ==
+        "error: unknown command 'rnu' (did you mean 'run'?) (see stickslip --help)\n");
+  const Result none = box.run({});
+  CHECK(none.code == 2);
+  CHECK_THAT(none.err, Contains("a command is required (valid: run, compare, sweep, keys)"));
+  CHECK(box.snapshot() == before);
+}
+
 namespace {
 
 // The version project() gives in CMakeLists.txt, the one place it is set.

@@ -50,14 +50,20 @@ std::string type_name(const toml::node& n) {
   return name.str();
 }
 
+// Edits (insert, delete, substitute, swap two neighbours) from a to b: a
+// swap ("rnu" for "run") is one typo, not two.
 std::size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<std::size_t> row(b.size() + 1);
+  std::vector<std::size_t> before(b.size() + 1), row(b.size() + 1), now(b.size() + 1);
   std::iota(row.begin(), row.end(), std::size_t{0});
   for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diag = std::exchange(row[0], i);
-    for (std::size_t j = 1; j <= b.size(); ++j)
-      diag = std::exchange(row[j],
-                           std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] != b[j - 1])}));
+    now[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      now[j] = std::min({row[j] + 1, now[j - 1] + 1, row[j - 1] + (a[i - 1] != b[j - 1])});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1])
+        now[j] = std::min(now[j], before[j - 2] + 1);
+    }
+    before = row;
+    row = now;
   }
   return row.back();
 }

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -18,6 +19,7 @@
 #include "stickslip/analysis/compare.hpp"
 #include "stickslip/case/keys.hpp"
 #include "stickslip/case/reader.hpp"
+#include "stickslip/case/toml_text.hpp"
 #include "stickslip/integrate/errors.hpp"
 #include "stickslip/output/summary.hpp"
 #include "stickslip/output/writers.hpp"
@@ -339,6 +341,49 @@ int keys_command(const std::string& key, bool markdown) {
   return 0;
 }
 
+// A command line CLI11 refused, said for this program: the subcommand's
+// help named, an unknown option or command with the nearest valid one.
+void print_command_line_error(const CLI::App& app, const CLI::ParseError& e, int argc,
+                              char** argv) {
+  namespace text = stickslip::toml_text;
+  const CLI::App* used = nullptr;
+  for (const CLI::App* sub : app.get_subcommands({}))
+    if (sub->parsed()) used = sub;
+  const std::string help =
+      used ? "stickslip " + used->get_name() + " --help" : std::string("stickslip --help");
+  std::vector<std::string> names;  // what the user may have meant
+  std::string what;
+  if (!used) {
+    // No subcommand recognised: the first word that is not an option is a misspelt one.
+    for (const CLI::App* sub : app.get_subcommands({})) names.push_back(sub->get_name());
+    std::string word;
+    for (int i = 1; i < argc && word.empty(); ++i)
+      if (argv[i][0] != '-') word = argv[i];
+    std::vector<std::string_view> valid(names.begin(), names.end());
+    what = word.empty()
+               ? "a command is required" + text::suggest("", valid)
+               : "unknown command '" + text::printable(word) + "'" + text::suggest(word, valid);
+  } else if (dynamic_cast<const CLI::ExtrasError*>(&e)) {
+    for (const CLI::Option* o : used->get_options({}))
+      for (const std::string& l : o->get_lnames()) names.push_back("--" + l);
+    std::vector<std::string_view> valid(names.begin(), names.end());
+    // An unknown option's value is left over too: the options are what to name.
+    const auto extras = used->remaining();
+    const bool any_option = std::any_of(extras.begin(), extras.end(),
+                                        [](const auto& x) { return x.rfind("-", 0) == 0; });
+    for (const std::string& extra : extras) {
+      const bool option = extra.rfind("-", 0) == 0;
+      if (any_option && !option) continue;
+      if (!what.empty()) what += "; ";
+      what += option
+                  ? "unknown option '" + text::printable(extra) + "'" + text::suggest(extra, valid)
+                  : "unexpected argument '" + text::printable(extra) + "'";
+    }
+  }
+  if (what.empty()) what = e.what();
+  std::fprintf(stderr, "error: %s (see %s)\n", what.c_str(), help.c_str());
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -415,7 +460,7 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "error: %s (see stickslip --help)\n", e.what());
+    print_command_line_error(app, e, argc, argv);
     return 2;
   }
   if (*run) {
