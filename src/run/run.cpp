@@ -26,6 +26,7 @@
 #include "stickslip/output/recorder.hpp"
 #include "stickslip/output/writers.hpp"
 #include "stickslip/run/resume.hpp"
+#include "stickslip/run/run_lock.hpp"
 #include "stickslip/run/thread_governor.hpp"
 #include "stickslip/version.hpp"
 
@@ -200,6 +201,10 @@ struct CaseRun::State {
   const RunOptions options;
   const std::function<int()> stop_signal;
   const Clock::time_point wall_start = Clock::now();  // its set-up counts too
+  // The output directory is this run's until it ends (run/run_lock.hpp):
+  // taken before the directory is read or changed, let go after every
+  // output below is closed.
+  const RunLock lock;
   // The run this one continues, on a restart (open_output_dir decides, before
   // the System is built): its checkpoint, and whether the directory held it
   // finished.
@@ -262,6 +267,8 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
     : c(c_),
       options(options_),
       stop_signal(options_.stop_signal ? options_.stop_signal : stop_signal_caught),
+      // A restart creates no directory: without one, it has nothing to continue.
+      lock(options_.out_dir, !options_.restart),
       plan(open_output_dir(c_, options_)),
       system(c_, place_contacts(c_.lattice, c_.interface)),
       progress(!options_.quiet, c_.run.t_end, options_.on_progress) {

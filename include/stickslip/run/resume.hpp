@@ -6,6 +6,8 @@
 // once: a restart may change only run.t_end, to a time the run has not
 // passed; it continues only a checkpoint of this code version unless asked;
 // and a fresh start is refused where a restart is what the user wants.
+// Whether another run is writing to the directory is asked first, by taking
+// its lock (run/run_lock.hpp): every rule here assumes no other run is.
 
 #include <filesystem>
 #include <optional>
