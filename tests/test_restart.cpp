@@ -965,3 +965,71 @@ TEST_CASE("a run's directory is locked for its lifetime, in one process too", "[
   CHECK_FALSE(fs::exists(box.work / "failing" / kRunLockFile));
   const RunLock again(box.work / "failing", false);  // and it is free
 }
+
+TEST_CASE("a restart refuses a corrupted checkpoint, leaving it as it was", "[restart][cli]") {
+  test::Sandbox box("stickslip_corrupt_checkpoint_");
+  const fs::path file = box.write("tiny.toml", kTiny);
+  interrupt(read_case(file), {.out_dir = box.work / "run", .quiet = true});
+  const fs::path checkpoint = box.work / "run" / kCheckpointFile;
+  const std::size_t state_bytes = read_checkpoint(box.work / "run").state.size() * sizeof(double);
+  std::string bytes = test::slurp(checkpoint);
+  REQUIRE(state_bytes > 200);
+  REQUIRE(bytes.size() > state_bytes);
+  // 100 bytes in the middle of the saved state (the end of the file), each
+  // with its lowest bit flipped: numbers still, but not the run's.
+  const std::size_t middle = bytes.size() - state_bytes / 2;
+  for (std::size_t k = middle - 50; k < middle + 50; ++k) bytes[k] ^= 0x01;
+  test::spit(checkpoint, bytes);
+  const auto before = box.snapshot();
+  const auto r = box.run({"run", "tiny.toml", "--restart", "run", "--quiet"});
+  INFO(r.err);
+  CHECK(r.code == 2);
+  CHECK(test::lines(r.err) == 1);
+  CHECK_THAT(r.err, Catch::StartsWith("error: run/checkpoint.bin: checksum mismatch: the "
+                                      "checkpoint is corrupted"));
+  CHECK_THAT(r.err, Catch::Contains("--overwrite"));
+  CHECK(box.snapshot() == before);
+}
+
+TEST_CASE("a checkpoint proves its header too, and one written before checksums still reads",
+          "[restart]") {
+  const test::TempDir tmp("stickslip_test_checkpoint_checksum");
+  const Case c = parse_case(kTiny, tmp.path / "tiny.toml");
+  Checkpoint k;
+  k.t = 1e-5;
+  k.output_index = 10;
+  k.state = {1.0, -2.5, 3e-7};
+  k.case_json = to_json(c);
+  k.git_commit = "0000000";
+  write_checkpoint(tmp.path, k);
+  const fs::path file = tmp.path / kCheckpointFile;
+  const std::string written = test::slurp(file);
+  CHECK(read_checkpoint(tmp.path).state == k.state);
+
+  // A digit of t changed in the header, which still parses: refused.
+  std::string changed = written;
+  const auto at = changed.find("\"t\":1e-05");
+  REQUIRE(at != std::string::npos);
+  changed[at + 4] = '2';
+  test::spit(file, changed);
+  CHECK_THROWS_WITH(read_checkpoint(tmp.path),
+                    Catch::StartsWith(file.string() + ": checksum mismatch: the checkpoint is "
+                                                      "corrupted"));
+  CHECK(test::slurp(file) == changed);
+
+  // The format before checksums (a magic line, the header, the state) is
+  // read as it was: an older code version's, continued with --any-version.
+  const nlohmann::json header = {{"t", 1e-5},
+                                 {"output_index", 10},
+                                 {"impulse_at_average", nullptr},
+                                 {"state_size", 3},
+                                 {"stats", SolverStats{}},
+                                 {"case", to_json(c)},
+                                 {"git_commit", "0000000"}};
+  const double state[3] = {1.0, -2.5, 3e-7};
+  test::spit(file, "stickslip-checkpoint 1\n" + header.dump() + "\n" +
+                       std::string(reinterpret_cast<const char*>(state), sizeof state));
+  const Checkpoint older = read_checkpoint(tmp.path);
+  CHECK(older.t == 1e-5);
+  CHECK(older.state == k.state);
+}

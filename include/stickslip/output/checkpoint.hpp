@@ -7,6 +7,8 @@
 // what a recorder cannot recover from its table (a slip under way) it saves
 // in the checkpoint itself (Recorder::save).
 // Written atomically: a kill at any moment leaves the previous one whole.
+// A checksum over its content proves it on reading: a checkpoint damaged
+// since is refused (OutputError), and left as it is.
 // A finished run whose case sets [output] final_state keeps its last, at
 // t_end, from which a restart continues it to a later t_end.
 
@@ -37,7 +39,8 @@ struct Checkpoint {
 inline constexpr const char* kCheckpointFile = "checkpoint.bin";
 
 void write_checkpoint(const std::filesystem::path& dir, const Checkpoint& c);
-// Throws OutputError naming the file when it is missing or not a checkpoint.
+// Throws OutputError naming the file when it is missing, not a checkpoint,
+// or not what was written (its checksum does not match).
 Checkpoint read_checkpoint(const std::filesystem::path& dir);
 
 // The part of the resolved case that must match for a restart: everything but
