@@ -1032,4 +1032,49 @@ TEST_CASE("a checkpoint proves its header too, and one written before checksums 
   const Checkpoint older = read_checkpoint(tmp.path);
   CHECK(older.t == 1e-5);
   CHECK(older.state == k.state);
+  CHECK(older.tables.empty());  // how far its tables reached is unknown
+}
+
+TEST_CASE("a restart refuses a table that ends before the checkpoint, changing nothing",
+          "[restart][cli]") {
+  test::Sandbox box("stickslip_short_table_");
+  const fs::path file = box.write("tiny.toml", kTiny);
+  const fs::path dir = box.work / "run";
+  // Stopped after ten output times, as SIGTERM from outside would.
+  bool stop = false;
+  RunOptions options{.out_dir = dir, .quiet = true};
+  options.stop_signal = [&] { return stop ? SIGTERM : 0; };
+  {
+    CaseRun run(read_case(file), options);
+    for (int k = 0; k < 10; ++k) run.output();
+    stop = true;
+    REQUIRE_THROWS_AS(run.output(), Interrupted);
+  }
+  const double checkpoint_t = read_checkpoint(dir).t;
+  REQUIRE(checkpoint_t >= 1e-5);
+  // friction.csv loses its rows after 8 µs (as a copy cut short would).
+  const fs::path friction = dir / "friction.csv";
+  std::string kept;
+  {
+    std::ifstream in(friction);
+    std::string line;
+    std::getline(in, line);
+    kept = line + '\n';
+    while (std::getline(in, line) && std::strtod(line.c_str(), nullptr) < 8.5e-6)
+      kept += line + '\n';
+  }
+  test::spit(friction, kept);
+  REQUIRE(first_column(friction).back() == Approx(8e-6));
+  const auto before = box.snapshot();
+  const auto r = box.run({"run", "tiny.toml", "--restart", "run", "--quiet"});
+  INFO(r.err);
+  CHECK(r.code == 2);
+  CHECK(test::lines(r.err) == 1);
+  char checkpoint_at[32];
+  std::snprintf(checkpoint_at, sizeof checkpoint_at, "%.9g s", checkpoint_t);
+  CHECK_THAT(r.err, Catch::StartsWith("error: run/friction.csv: ends at t = 8e-06 s, before the "
+                                      "checkpoint's t = " +
+                                      std::string(checkpoint_at)));
+  CHECK_THAT(r.err, Catch::Contains("--overwrite"));
+  CHECK(box.snapshot() == before);
 }

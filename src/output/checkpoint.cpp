@@ -131,7 +131,8 @@ void write_checkpoint(const std::filesystem::path& dir, const Checkpoint& c) {
                            {"case", c.case_json},
                            {"git_commit", c.git_commit},
                            {"segments", nlohmann::json::array()},
-                           {"recorders", c.recorders}};
+                           {"recorders", c.recorders},
+                           {"tables", c.tables}};
   auto& segments = header["segments"];
   for (const auto& seg : c.segments)
     segments.push_back({{"from", seg.from}, {"git_commit", seg.git_commit}});
@@ -185,6 +186,9 @@ Checkpoint read_checkpoint(const std::filesystem::path& dir) {
     }
     // Absent in checkpoints of older code: the recorders saved nothing.
     c.recorders = h.value("recorders", nlohmann::json::object());
+    // Absent in checkpoints of older code: how far the tables reached is
+    // unknown, and not checked.
+    c.tables = h.value("tables", std::map<std::string, double>{});
   } catch (const nlohmann::json::exception& e) {
     throw OutputError(file.string() + ": damaged checkpoint header: " + e.what());
   }

@@ -216,7 +216,7 @@ struct CaseRun::State {
   std::vector<double> y0, y;
   // The outputs: the tables, their recorders, the contacts whose events are
   // watched (the integrator's roots, in this order), the last flush.
-  std::unique_ptr<TableStore> tables;
+  std::unique_ptr<TrackedTableStore> tables;
   std::vector<int> watched;
   std::vector<std::unique_ptr<Recorder>> recorders;
   Clock::time_point last_flush = Clock::now();
@@ -279,7 +279,10 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
   y = resume ? resume->state : y0;
 
   // Only what the case asks for is recorded (traces, events, steps, signals, ...).
-  tables = make_table_store(c.output.format, dir, resume.has_value());
+  // How far each table reaches goes into every checkpoint (run/resume.cpp checks it).
+  tables = std::make_unique<TrackedTableStore>(
+      make_table_store(c.output.format, dir, resume.has_value()),
+      resume ? resume->tables : std::map<std::string, double>{});
   if (!resume) {
     // An HDF5 file describes its run by itself (a CSV run has summary.json).
     tables->set_attribute("case", to_json(c).dump());
@@ -430,7 +433,8 @@ void CaseRun::State::checkpoint(double t, long k) {
                                      .case_json = to_json(c),
                                      .git_commit = kGitCommit,
                                      .segments = segments,
-                                     .recorders = std::move(saved)});
+                                     .recorders = std::move(saved),
+                                     .tables = tables->last_rows(t)});
 }
 
 void CaseRun::State::stop_if_requested(double t, long k) {

@@ -13,6 +13,7 @@
 // t_end, from which a restart continues it to a later t_end.
 
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -34,6 +35,10 @@ struct Checkpoint {
   std::string git_commit;            // the version that wrote it
   std::vector<RunSegment> segments;  // the run's attempts up to it, the writer's last
   nlohmann::json recorders = nlohmann::json::object();  // what they saved, by recorder
+  // By table, the time of its last row at or before t (TrackedTableStore::
+  // last_rows): a restart refuses a table that no longer reaches it. Empty
+  // in checkpoints of older code.
+  std::map<std::string, double> tables;
 };
 
 inline constexpr const char* kCheckpointFile = "checkpoint.bin";

@@ -55,7 +55,8 @@ struct ResumePlan {
 // overwrite) where the directory holds a run this case continues; with
 // OutputError, a restart that cannot be (a finished run without its final
 // state or with nothing left to run, no checkpoint or a damaged one, another
-// case, an earlier run.t_end, another code version). A fresh start in a
+// case, an earlier run.t_end, another code version, a table that ends before
+// the checkpoint's time or is missing). A fresh start in a
 // directory holding other results is refused when the directory is prepared
 // (prepare_output_dir).
 ResumePlan plan_output_dir(const Case& c, const DirectoryRequest& request);
