@@ -5,7 +5,9 @@
 // directory; a finished run that kept its final state continues to a later
 // t_end as if it had run there straight; and each start and each refusal of
 // restart admission (plan_output_dir) on the directories a run leaves.
+#include <fcntl.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <catch2/catch.hpp>
@@ -18,10 +20,13 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "sandbox.hpp"
 #include "stickslip/analysis/compare.hpp"
 #include "stickslip/case/reader.hpp"
+#include "stickslip/integrate/errors.hpp"
 #include "stickslip/output/checkpoint.hpp"
 #include "stickslip/output/recorder.hpp"
 #include "stickslip/output/summary.hpp"
@@ -29,6 +34,7 @@
 #include "stickslip/output/writers.hpp"
 #include "stickslip/run/resume.hpp"
 #include "stickslip/run/run.hpp"
+#include "stickslip/run/run_lock.hpp"
 #include "stickslip/version.hpp"
 #include "temp_dir.hpp"
 #include "test_cases.hpp"
@@ -811,4 +817,264 @@ TEST_CASE("a run continued to a later t_end agrees with one run there straight",
     }
     CHECK(read_run_columns(box / extended, "final_state").at(0).second.front() == 1.5e-3);
   }
+}
+
+namespace {
+
+// `args` run by the binary in `cwd`, in the background, its output discarded:
+// its pid, to stop, kill and wait for as a test needs.
+pid_t start_run(const fs::path& cwd, std::vector<std::string> args) {
+  std::string exe = STICKSLIP_EXE;
+  std::vector<char*> argv{exe.data()};
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  const pid_t pid = fork();
+  if (pid == 0) {  // only async-signal-safe calls until exec
+    const int null = open("/dev/null", O_WRONLY);
+    if (chdir(cwd.c_str()) != 0 || null < 0) _exit(127);
+    dup2(null, STDOUT_FILENO);
+    dup2(null, STDERR_FILENO);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+std::string exact(double x) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.17g", x);
+  return text;
+}
+
+}  // namespace
+
+TEST_CASE(
+    "a run into a live run's directory is refused and touches nothing, and a killed run's "
+    "lock does not block",
+    "[restart][cli]") {
+  test::Sandbox box("stickslip_live_run_");
+  box.write("two.toml", kCase);
+  // Long enough to be caught alive (it is stopped, then killed long before
+  // its end), checkpointing often.
+  const fs::path live = box.work / "live";
+  const std::vector<std::string> sets = {"--set", "run.average_from=1e-6"};
+  std::vector<std::string> first = {"run",
+                                    "two.toml",
+                                    "--out",
+                                    "live",
+                                    "--quiet",
+                                    "--set",
+                                    "run.t_end=1e-2",
+                                    "--set",
+                                    "run.checkpoint_every=2e-5"};
+  first.insert(first.end(), sets.begin(), sets.end());
+  const pid_t pid = start_run(box.work, first);
+  REQUIRE(pid > 0);
+  for (int k = 0; k < 3000 && !fs::exists(live / kCheckpointFile); ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  REQUIRE(fs::exists(live / kCheckpointFile));
+  // Stopped, the run writes nothing more but is alive and holds its directory.
+  REQUIRE(kill(pid, SIGSTOP) == 0);
+  int status = 0;
+  REQUIRE(waitpid(pid, &status, WUNTRACED) == pid);
+  REQUIRE(WIFSTOPPED(status));
+  const double checkpoint_t = read_checkpoint(live).t;
+  const auto before = box.snapshot();
+
+  // A fresh start, one with --overwrite (a short run: the old code finished
+  // it over the live one's files) and a restart: each refused, naming the
+  // directory and the live run, and nothing there changes.
+  const std::vector<std::vector<std::string>> requests = {
+      {"--out", "live", "--set", "run.t_end=1e-4"},
+      {"--out", "live", "--overwrite", "--set", "run.t_end=1e-4"},
+      {"--restart", "live", "--set", "run.t_end=" + exact(checkpoint_t + 1e-5)}};
+  for (const auto& request : requests) {
+    std::vector<std::string> args{"run", "two.toml", "--quiet"};
+    args.insert(args.end(), request.begin(), request.end());
+    args.insert(args.end(), sets.begin(), sets.end());
+    const auto r = box.run(args);
+    INFO(request[0] << " " << request[1] << " " << request[2] << ": " << r.err);
+    CHECK(r.code == 2);
+    CHECK(test::lines(r.err) == 1);
+    CHECK_THAT(r.err, Catch::StartsWith("error: live: a live run is writing there (pid " +
+                                        std::to_string(pid)));
+    // Not the advice for a stopped run: a restart beside the live one.
+    CHECK_THAT(r.err, !Catch::Contains("interrupted") && !Catch::Contains("continue with:"));
+    CHECK(box.snapshot() == before);
+  }
+
+  // Killed (as by the OOM killer), the run leaves its lock file, which the
+  // OS no longer holds: a restart continues it.
+  REQUIRE(kill(pid, SIGKILL) == 0);
+  REQUIRE(waitpid(pid, &status, 0) == pid);
+  CHECK(fs::exists(live / "run.lock"));
+  const auto continued =
+      box.run({"run", "two.toml", "--quiet", "--restart", "live", "--set",
+               "run.t_end=" + exact(read_checkpoint(live).t + 1e-5), sets[0], sets[1]});
+  INFO(continued.err);
+  CHECK(continued.code == 0);
+  CHECK(read_summary(live));
+  CHECK_FALSE(fs::exists(live / "run.lock"));  // a clean end leaves no lock behind
+}
+
+TEST_CASE("a run's directory is locked for its lifetime, in one process too", "[restart]") {
+  // Two runs of one process (the Python module's threads) exclude each other
+  // as two processes do; the lock goes when the run does, however it ends.
+  test::Sandbox box("stickslip_run_lock_");
+  const Case c = parse_case(kTiny, box.work / "tiny.toml");
+  const fs::path dir = box.work / "run";
+  interrupt(c, {.out_dir = dir, .quiet = true});
+  CHECK_FALSE(fs::exists(dir / kRunLockFile));  // an interrupted run lets go of it
+  const auto before = box.snapshot();
+  {
+    const RunLock live(dir, true);
+    for (const RunOptions& second : {RunOptions{.out_dir = dir, .quiet = true},
+                                     RunOptions{.out_dir = dir, .overwrite = true, .quiet = true},
+                                     RunOptions{.out_dir = dir, .quiet = true, .restart = true}}) {
+      INFO("overwrite " << second.overwrite << ", restart " << second.restart);
+      try {
+        run_case(c, second);
+        FAIL("a second run was not refused");
+      } catch (const LiveRunError& e) {
+        CHECK(e.pid == getpid());
+        CHECK_THAT(e.what(),
+                   Catch::StartsWith(dir.string() + ": a live run is writing there (pid " +
+                                     std::to_string(getpid()) + " on "));
+      }
+      // The lock file aside (the live run's own), nothing there changed.
+      auto now = box.snapshot();
+      CHECK(now.erase("run/" + std::string(kRunLockFile)) == 1);
+      CHECK(now == before);
+    }
+  }
+  // Let go: the run continues, and leaves no lock file as it ends.
+  CHECK_FALSE(fs::exists(dir / kRunLockFile));
+  CHECK(run_case(c, {.out_dir = dir, .quiet = true, .restart = true}).t_end == 2e-5);
+  CHECK_FALSE(fs::exists(dir / kRunLockFile));
+
+  // A lock file no process holds (its run killed) blocks nothing, whatever it says.
+  test::spit(dir / kRunLockFile, "pid 1\nhost elsewhere\nstarted long ago\n");
+  CHECK(run_case(c, {.out_dir = dir, .overwrite = true, .quiet = true}).t_end == 2e-5);
+  CHECK_FALSE(fs::exists(dir / kRunLockFile));
+
+  // A run that fails lets go too.
+  Case failing = c;
+  failing.solver.max_steps = 1;
+  CHECK_THROWS_AS(run_case(failing, {.out_dir = box.work / "failing", .quiet = true}),
+                  IntegrationError);
+  CHECK_FALSE(fs::exists(box.work / "failing" / kRunLockFile));
+  const RunLock again(box.work / "failing", false);  // and it is free
+}
+
+TEST_CASE("a restart refuses a corrupted checkpoint, leaving it as it was", "[restart][cli]") {
+  test::Sandbox box("stickslip_corrupt_checkpoint_");
+  const fs::path file = box.write("tiny.toml", kTiny);
+  interrupt(read_case(file), {.out_dir = box.work / "run", .quiet = true});
+  const fs::path checkpoint = box.work / "run" / kCheckpointFile;
+  const std::size_t state_bytes = read_checkpoint(box.work / "run").state.size() * sizeof(double);
+  std::string bytes = test::slurp(checkpoint);
+  REQUIRE(state_bytes > 200);
+  REQUIRE(bytes.size() > state_bytes);
+  // 100 bytes in the middle of the saved state (the end of the file), each
+  // with its lowest bit flipped: numbers still, but not the run's.
+  const std::size_t middle = bytes.size() - state_bytes / 2;
+  for (std::size_t k = middle - 50; k < middle + 50; ++k) bytes[k] ^= 0x01;
+  test::spit(checkpoint, bytes);
+  const auto before = box.snapshot();
+  const auto r = box.run({"run", "tiny.toml", "--restart", "run", "--quiet"});
+  INFO(r.err);
+  CHECK(r.code == 2);
+  CHECK(test::lines(r.err) == 1);
+  CHECK_THAT(r.err, Catch::StartsWith("error: run/checkpoint.bin: checksum mismatch: the "
+                                      "checkpoint is corrupted"));
+  CHECK_THAT(r.err, Catch::Contains("--overwrite"));
+  CHECK(box.snapshot() == before);
+}
+
+TEST_CASE("a checkpoint proves its header too, and one written before checksums still reads",
+          "[restart]") {
+  const test::TempDir tmp("stickslip_test_checkpoint_checksum");
+  const Case c = parse_case(kTiny, tmp.path / "tiny.toml");
+  Checkpoint k;
+  k.t = 1e-5;
+  k.output_index = 10;
+  k.state = {1.0, -2.5, 3e-7};
+  k.case_json = to_json(c);
+  k.git_commit = "0000000";
+  write_checkpoint(tmp.path, k);
+  const fs::path file = tmp.path / kCheckpointFile;
+  const std::string written = test::slurp(file);
+  CHECK(read_checkpoint(tmp.path).state == k.state);
+
+  // A digit of t changed in the header, which still parses: refused.
+  std::string changed = written;
+  const auto at = changed.find("\"t\":1e-05");
+  REQUIRE(at != std::string::npos);
+  changed[at + 4] = '2';
+  test::spit(file, changed);
+  CHECK_THROWS_WITH(read_checkpoint(tmp.path),
+                    Catch::StartsWith(file.string() + ": checksum mismatch: the checkpoint is "
+                                                      "corrupted"));
+  CHECK(test::slurp(file) == changed);
+
+  // The format before checksums (a magic line, the header, the state) is
+  // read as it was: an older code version's, continued with --any-version.
+  const nlohmann::json header = {{"t", 1e-5},
+                                 {"output_index", 10},
+                                 {"impulse_at_average", nullptr},
+                                 {"state_size", 3},
+                                 {"stats", SolverStats{}},
+                                 {"case", to_json(c)},
+                                 {"git_commit", "0000000"}};
+  const double state[3] = {1.0, -2.5, 3e-7};
+  test::spit(file, "stickslip-checkpoint 1\n" + header.dump() + "\n" +
+                       std::string(reinterpret_cast<const char*>(state), sizeof state));
+  const Checkpoint older = read_checkpoint(tmp.path);
+  CHECK(older.t == 1e-5);
+  CHECK(older.state == k.state);
+  CHECK(older.tables.empty());  // how far its tables reached is unknown
+}
+
+TEST_CASE("a restart refuses a table that ends before the checkpoint, changing nothing",
+          "[restart][cli]") {
+  test::Sandbox box("stickslip_short_table_");
+  const fs::path file = box.write("tiny.toml", kTiny);
+  const fs::path dir = box.work / "run";
+  // Stopped after ten output times, as SIGTERM from outside would.
+  bool stop = false;
+  RunOptions options{.out_dir = dir, .quiet = true};
+  options.stop_signal = [&] { return stop ? SIGTERM : 0; };
+  {
+    CaseRun run(read_case(file), options);
+    for (int k = 0; k < 10; ++k) run.output();
+    stop = true;
+    REQUIRE_THROWS_AS(run.output(), Interrupted);
+  }
+  const double checkpoint_t = read_checkpoint(dir).t;
+  REQUIRE(checkpoint_t >= 1e-5);
+  // friction.csv loses its rows after 8 µs (as a copy cut short would).
+  const fs::path friction = dir / "friction.csv";
+  std::string kept;
+  {
+    std::ifstream in(friction);
+    std::string line;
+    std::getline(in, line);
+    kept = line + '\n';
+    while (std::getline(in, line) && std::strtod(line.c_str(), nullptr) < 8.5e-6)
+      kept += line + '\n';
+  }
+  test::spit(friction, kept);
+  REQUIRE(first_column(friction).back() == Approx(8e-6));
+  const auto before = box.snapshot();
+  const auto r = box.run({"run", "tiny.toml", "--restart", "run", "--quiet"});
+  INFO(r.err);
+  CHECK(r.code == 2);
+  CHECK(test::lines(r.err) == 1);
+  char checkpoint_at[32];
+  std::snprintf(checkpoint_at, sizeof checkpoint_at, "%.9g s", checkpoint_t);
+  CHECK_THAT(r.err, Catch::StartsWith("error: run/friction.csv: ends at t = 8e-06 s, before the "
+                                      "checkpoint's t = " +
+                                      std::string(checkpoint_at)));
+  CHECK_THAT(r.err, Catch::Contains("--overwrite"));
+  CHECK(box.snapshot() == before);
 }

@@ -6,6 +6,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <string>
 
@@ -151,6 +152,39 @@ TraceTable read_run_table(const fs::path& dir, const std::string& name) {
 NamedColumns read_run_columns(const fs::path& dir, const std::string& name) {
   if (!is_hdf5_run(dir)) return read_columns_csv(csv_file(dir, name));
   return read_hdf5_table(dir / kHdf5File, name);
+}
+
+std::optional<double> last_row_time(const fs::path& dir, const std::string& name, double t) {
+  // Times are printed to 12 digits or more, so the row at t itself may read
+  // back a little above it (as keep_rows_up_to allows).
+  const double up_to = t * (1 + 1e-10);
+  std::optional<double> last;
+  if (is_hdf5_run(dir)) {
+    const auto columns = read_run_columns(dir, name);
+    if (columns.empty()) throw OutputError(run_table_location(dir, name) + ": has no columns");
+    for (const double ti : columns.front().second) {
+      if (ti > up_to) break;
+      last = ti;
+    }
+    return last;
+  }
+  const fs::path file = csv_file(dir, name);
+  std::ifstream in(file);
+  if (!in) throw OutputError(file.string() + ": missing; the run cannot continue without it");
+  std::string line;
+  std::getline(in, line);  // the header
+  while (std::getline(in, line)) {
+    if (in.eof()) break;  // cut off mid-write
+    const double ti = std::strtod(line.c_str(), nullptr);
+    if (ti > up_to) break;
+    last = ti;
+  }
+  return last;
+}
+
+std::string run_table_location(const fs::path& dir, const std::string& name) {
+  if (is_hdf5_run(dir)) return (dir / kHdf5File).string() + ": /" + name;
+  return csv_file(dir, name).string();
 }
 
 std::vector<Event> read_run_events(const fs::path& dir) {

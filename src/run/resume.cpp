@@ -1,11 +1,13 @@
 #include "stickslip/run/resume.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <utility>
 #include <vector>
 
 #include "stickslip/output/summary.hpp"
+#include "stickslip/output/tables.hpp"
 #include "stickslip/version.hpp"
 
 namespace stickslip {
@@ -73,8 +75,28 @@ void refuse_resumable(const Case& c, const std::filesystem::path& dir) {
   throw ResumableRunError(what, other_version);
 }
 
+// A table a restart continues must reach the checkpoint: hold, at or before
+// its time, the last row it held when the checkpoint was written. One that
+// ends earlier (a copy cut short, rows removed) would be continued with a
+// hole in it, its μ and events reported over rows that are not there; the
+// state cannot be taken back to where the table ends, so the restart is
+// refused. Rows past the checkpoint are cut back by the recorders, as ever.
+void refuse_short_tables(const std::filesystem::path& dir, const Checkpoint& checkpoint) {
+  for (const auto& [name, reached] : checkpoint.tables) {
+    const std::optional<double> last = last_row_time(dir, name, checkpoint.t);
+    // Printed to 12 digits or more, a row may read back a little below its time.
+    if (last && *last >= reached - 1e-10 * std::abs(reached)) continue;
+    throw OutputError(run_table_location(dir, name) + ": " +
+                      (last ? "ends at t = " + seconds(*last) + ", before" : "has no row up to") +
+                      " the checkpoint's t = " + seconds(checkpoint.t) +
+                      ", by which it had a row at t = " + seconds(reached) +
+                      ": continued, it would miss the rows in between; restore the table (from a "
+                      "copy), or start the run afresh with --overwrite");
+  }
+}
+
 // A restart continues from the checkpoint: same case but for run.t_end, same
-// code (or any code, when asked).
+// code (or any code, when asked), its tables whole up to the checkpoint.
 ResumePlan plan_restart(const Case& c, const DirectoryRequest& request) {
   const auto& dir = request.dir;
   // A summary.json that does not parse (cut short outside this code, which
@@ -117,6 +139,7 @@ ResumePlan plan_restart(const Case& c, const DirectoryRequest& request) {
   if (checkpoint.git_commit != kGitCommit && !request.any_version)
     throw OutputError(file + ": written by code version " + checkpoint.git_commit + ", this is " +
                       kGitCommit + " (--any-version continues it anyway)");
+  refuse_short_tables(dir, checkpoint);
   return {finished ? ResumePlan::Kind::extend_finished : ResumePlan::Kind::continue_checkpoint,
           std::move(checkpoint)};
 }

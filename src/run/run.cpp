@@ -26,6 +26,7 @@
 #include "stickslip/output/recorder.hpp"
 #include "stickslip/output/writers.hpp"
 #include "stickslip/run/resume.hpp"
+#include "stickslip/run/run_lock.hpp"
 #include "stickslip/run/thread_governor.hpp"
 #include "stickslip/version.hpp"
 
@@ -200,6 +201,10 @@ struct CaseRun::State {
   const RunOptions options;
   const std::function<int()> stop_signal;
   const Clock::time_point wall_start = Clock::now();  // its set-up counts too
+  // The output directory is this run's until it ends (run/run_lock.hpp):
+  // taken before the directory is read or changed, let go after every
+  // output below is closed.
+  const RunLock lock;
   // The run this one continues, on a restart (open_output_dir decides, before
   // the System is built): its checkpoint, and whether the directory held it
   // finished.
@@ -211,7 +216,7 @@ struct CaseRun::State {
   std::vector<double> y0, y;
   // The outputs: the tables, their recorders, the contacts whose events are
   // watched (the integrator's roots, in this order), the last flush.
-  std::unique_ptr<TableStore> tables;
+  std::unique_ptr<TrackedTableStore> tables;
   std::vector<int> watched;
   std::vector<std::unique_ptr<Recorder>> recorders;
   Clock::time_point last_flush = Clock::now();
@@ -262,6 +267,8 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
     : c(c_),
       options(options_),
       stop_signal(options_.stop_signal ? options_.stop_signal : stop_signal_caught),
+      // A restart creates no directory: without one, it has nothing to continue.
+      lock(options_.out_dir, !options_.restart),
       plan(open_output_dir(c_, options_)),
       system(c_, place_contacts(c_.lattice, c_.interface)),
       progress(!options_.quiet, c_.run.t_end, options_.on_progress) {
@@ -272,7 +279,10 @@ CaseRun::State::State(const Case& c_, const RunOptions& options_)
   y = resume ? resume->state : y0;
 
   // Only what the case asks for is recorded (traces, events, steps, signals, ...).
-  tables = make_table_store(c.output.format, dir, resume.has_value());
+  // How far each table reaches goes into every checkpoint (run/resume.cpp checks it).
+  tables = std::make_unique<TrackedTableStore>(
+      make_table_store(c.output.format, dir, resume.has_value()),
+      resume ? resume->tables : std::map<std::string, double>{});
   if (!resume) {
     // An HDF5 file describes its run by itself (a CSV run has summary.json).
     tables->set_attribute("case", to_json(c).dump());
@@ -423,7 +433,8 @@ void CaseRun::State::checkpoint(double t, long k) {
                                      .case_json = to_json(c),
                                      .git_commit = kGitCommit,
                                      .segments = segments,
-                                     .recorders = std::move(saved)});
+                                     .recorders = std::move(saved),
+                                     .tables = tables->last_rows(t)});
 }
 
 void CaseRun::State::stop_if_requested(double t, long k) {

@@ -7,10 +7,13 @@
 // what a recorder cannot recover from its table (a slip under way) it saves
 // in the checkpoint itself (Recorder::save).
 // Written atomically: a kill at any moment leaves the previous one whole.
+// A checksum over its content proves it on reading: a checkpoint damaged
+// since is refused (OutputError), and left as it is.
 // A finished run whose case sets [output] final_state keeps its last, at
 // t_end, from which a restart continues it to a later t_end.
 
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -32,12 +35,17 @@ struct Checkpoint {
   std::string git_commit;            // the version that wrote it
   std::vector<RunSegment> segments;  // the run's attempts up to it, the writer's last
   nlohmann::json recorders = nlohmann::json::object();  // what they saved, by recorder
+  // By table, the time of its last row at or before t (TrackedTableStore::
+  // last_rows): a restart refuses a table that no longer reaches it. Empty
+  // in checkpoints of older code.
+  std::map<std::string, double> tables;
 };
 
 inline constexpr const char* kCheckpointFile = "checkpoint.bin";
 
 void write_checkpoint(const std::filesystem::path& dir, const Checkpoint& c);
-// Throws OutputError naming the file when it is missing or not a checkpoint.
+// Throws OutputError naming the file when it is missing, not a checkpoint,
+// or not what was written (its checksum does not match).
 Checkpoint read_checkpoint(const std::filesystem::path& dir);
 
 // The part of the resolved case that must match for a restart: everything but

@@ -5,6 +5,8 @@
 // (a row's width, the names of a table's file and of a 2-D dataset's
 // members). Which store a run uses, and reading tables back, is tables.hpp.
 
+#include <deque>
+#include <map>
 #include <memory>
 #include <optional>
 #include <span>
@@ -74,6 +76,30 @@ class TableStore {
   // A text attribute of the whole run (HDF5: of the root group); CSV runs
   // have summary.json and write nothing.
   virtual void set_attribute(const std::string& name, const std::string& text) = 0;
+};
+
+// A store that hands everything to another and notes, table by table, the
+// time of the rows appended (the first column, where it is a time: unit
+// "s"), so that a checkpoint records how far each table reached.
+class TrackedTableStore final : public TableStore {
+ public:
+  // `reached`: on a restart, what its checkpoint recorded (last_rows): where
+  // each table ends until it has new rows.
+  explicit TrackedTableStore(std::unique_ptr<TableStore> store,
+                             const std::map<std::string, double>& reached = {});
+  std::unique_ptr<Table> create(const TableSpec& spec) override;
+  std::unique_ptr<Table> resume(const TableSpec& spec, double t) override;
+  void set_attribute(const std::string& name, const std::string& text) override;
+  // By table, the time of its last row at or before `t` (a step that ended
+  // past a checkpoint's time has a row after it, which the restart cuts);
+  // a table without one is left out. From what the store noted, not the files.
+  std::map<std::string, double> last_rows(double t) const;
+
+ private:
+  std::unique_ptr<TableStore> store_;
+  // By table, the times of its last few rows, the newest last: enough for
+  // the rows of one step past any time asked about.
+  std::map<std::string, std::deque<double>> recent_;
 };
 
 // A recorder's row has a value per column (std::logic_error otherwise); both

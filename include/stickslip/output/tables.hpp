@@ -67,6 +67,15 @@ TraceTable read_run_table(const std::filesystem::path& dir, const std::string& n
 // Not for a table with a label column. OutputError as read_run_table.
 using NamedColumns = std::vector<std::pair<std::string, std::vector<double>>>;
 NamedColumns read_run_columns(const std::filesystem::path& dir, const std::string& name);
+// The time (first column) of the last row of table `name` of the run in `dir`
+// at or before `t`, in either format, without reading its other columns; a
+// CSV row cut off mid-write (no newline) does not count. None if it has no
+// such row. OutputError if the table is missing or unreadable.
+std::optional<double> last_row_time(const std::filesystem::path& dir, const std::string& name,
+                                    double t);
+// Where table `name` of the run in `dir` is, for a message: <dir>/<name>.csv,
+// or <dir>/run.h5: /<name>.
+std::string run_table_location(const std::filesystem::path& dir, const std::string& name);
 // The events table of the run in `dir`, in either format.
 std::vector<Event> read_run_events(const std::filesystem::path& dir);
 

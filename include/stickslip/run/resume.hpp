@@ -6,6 +6,8 @@
 // once: a restart may change only run.t_end, to a time the run has not
 // passed; it continues only a checkpoint of this code version unless asked;
 // and a fresh start is refused where a restart is what the user wants.
+// Whether another run is writing to the directory is asked first, by taking
+// its lock (run/run_lock.hpp): every rule here assumes no other run is.
 
 #include <filesystem>
 #include <optional>
@@ -53,7 +55,8 @@ struct ResumePlan {
 // overwrite) where the directory holds a run this case continues; with
 // OutputError, a restart that cannot be (a finished run without its final
 // state or with nothing left to run, no checkpoint or a damaged one, another
-// case, an earlier run.t_end, another code version). A fresh start in a
+// case, an earlier run.t_end, another code version, a table that ends before
+// the checkpoint's time or is missing). A fresh start in a
 // directory holding other results is refused when the directory is prepared
 // (prepare_output_dir).
 ResumePlan plan_output_dir(const Case& c, const DirectoryRequest& request);

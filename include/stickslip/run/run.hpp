@@ -69,14 +69,16 @@ std::filesystem::path output_dir_for(const Case& c, const std::filesystem::path&
 // Runs the case and returns what it wrote to summary.json (IntegrationError
 // if the integration or its energy audit fails, OutputError for an unusable
 // output directory or a refused restart, ResumableRunError (run/resume.hpp)
-// for a fresh start where a restart is wanted, Interrupted on SIGINT/SIGTERM).
+// for a fresh start where a restart is wanted, LiveRunError (run/run_lock.hpp)
+// while another run writes to the directory, Interrupted on SIGINT/SIGTERM).
 // It is a CaseRun driven output time by output time, then finished.
 Summary run_case(const Case& c, const RunOptions& options);
 
 // One run in its phases, for run_case and for tests that look inside it.
-//  - made: the output directory checked (or, on a restart, the checkpoint
-//    read and checked: run/resume.hpp), the System, the recorders and the integrator set up,
-//    and the first row recorded;
+//  - made: the output directory locked for the run's lifetime
+//    (run/run_lock.hpp) and checked (or, on a restart, the checkpoint read
+//    and checked: run/resume.hpp), the System, the recorders and the
+//    integrator set up, and the first row recorded;
 //  - output(): integrates to the next output time (recording the stick/slip
 //    events on the way, stopping at t_avg for μ's impulse), records that row,
 //    and checkpoints or stops as the case and the signals ask;
