@@ -654,6 +654,6 @@ TEST_CASE("a --jobs below 1 is bad input, in one readable line", "[sweep]") {
   const auto before = box.snapshot();
   const auto r = box.run({"sweep", "tiny.toml", "--jobs", "0"});
   CHECK(r.code == 2);
-  CHECK(r.err == "error: --jobs: Value 0 not in range 1 to 4096 (see stickslip --help)\n");
+  CHECK(r.err == "error: --jobs: Value 0 not in range 1 to 4096 (see stickslip sweep --help)\n");
   CHECK(box.snapshot() == before);
 }

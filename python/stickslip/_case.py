@@ -53,16 +53,27 @@ def _override(dotted, value):
 
 
 def _overrides(changes):
-    """{"section.key": value} or {"section": {"key": value}} as "section.key=value" strings."""
+    """{"section.key": value} or {"section": {"key": value}} as "section.key=value" strings.
+    A key given twice in one dict (as "lattice.nx" and in {"lattice": {"nx": ...}}) is
+    refused, as a TOML file refuses a duplicate key: which one was meant is not known."""
     if not isinstance(changes, dict):
         raise CaseError(f"expected a dict of case keys, got {type(changes).__name__}")
-    overrides = []
+    overrides, given = [], {}
+
+    def add(dotted, value, spelling):
+        if dotted in given:
+            raise CaseError(f"{dotted}: given twice, as {given[dotted]} and as {spelling}; "
+                            "give it once")
+        given[dotted] = spelling
+        overrides.append(_override(dotted, value))
+
     for name, value in changes.items():
         name = str(name)
         if "." in name:
-            overrides.append(_override(name, value))
+            add(name, value, repr(name))
         elif isinstance(value, dict):
-            overrides.extend(_override(f"{name}.{key}", v) for key, v in value.items())
+            for key, v in value.items():
+                add(f"{name}.{key}", v, f"{{{name!r}: {{{str(key)!r}: ...}}}}")
         elif not _BARE_KEY.match(name):
             raise CaseError(f"{name!r}: expected a section or section.key")
         else:
@@ -108,15 +119,40 @@ class Case:
         overrides = _overrides(sections)
         return cls("", Path("<dict>"), overrides, _core.parse_case("", Path("<dict>"), overrides))
 
-    def replace(self, changes):
-        """A copy with `changes` ({"drive.velocity": 3e-4}, or by section) applied,
-        validated again: the same as --set on the command line."""
-        overrides = self._overrides + _overrides(changes)
+    def replace(self, changes=None, /, **dotted):
+        """A copy with `changes` ({"drive.velocity": 3e-4}, or by section) and/or
+        keyword changes (replace(**{"run.t_end": 1e-2}), replace(run={"t_end": 1e-2}))
+        applied, validated again: the same as --set on the command line."""
+        if changes is not None and not isinstance(changes, dict):
+            _overrides(changes)  # refused, naming its type
+        both = dict(changes or {})
+        for name, value in dotted.items():
+            if name in both:
+                raise CaseError(f"{name}: given twice, in the dict and as a keyword; give it once")
+            both[name] = value
+        overrides = self._overrides + _overrides(both)
         if self._text is None:
             validated = _core.read_case(self._source, overrides)
         else:
             validated = _core.parse_case(self._text, self._source, overrides)
         return Case(self._text, self._source, overrides, validated)
+
+    def __getitem__(self, section):
+        """A section's resolved values, read-only: case["run"]["average_from"]."""
+        d = self.to_dict()
+        if section not in d:
+            raise KeyError(f"{section!r}: no such section (sections: {', '.join(d)})")
+        return _Section(section, d[section])
+
+    def __getattr__(self, name):
+        """A section as an attribute: case.run.average_from (read-only; replace() changes)."""
+        if name.startswith("_"):
+            raise AttributeError(name)
+        d = self.to_dict()
+        if name not in d:
+            raise AttributeError(f"Case has no attribute or section {name!r} "
+                                 f"(sections: {', '.join(d)})")
+        return _Section(name, d[name])
 
     @property
     def source(self):
@@ -155,6 +191,52 @@ class Case:
             f"{contacts}coverage {self.coverage:.4g}, v {d['drive']['velocity']} m/s, "
             f"t_end {d['run']['t_end']} s, {solver['method']} rtol {solver['rtol']})"
         )
+
+
+class _Section:
+    """One section of a Case, read-only, by key or attribute: s["t_end"], s.t_end."""
+
+    def __init__(self, name, values):
+        self._name, self._values = name, values
+
+    def __getitem__(self, key):
+        if key not in self._values:
+            raise KeyError(f"{self._name}.{key}: no such key (keys: {', '.join(self._values)})")
+        return self._values[key]
+
+    def __getattr__(self, key):
+        if key.startswith("_"):
+            raise AttributeError(key)
+        try:
+            return self[key]
+        except KeyError as e:
+            raise AttributeError(str(e)) from None
+
+    def __setattr__(self, key, value):
+        if key.startswith("_"):
+            return object.__setattr__(self, key, value)
+        raise AttributeError(f"{self._name}.{key}: a Case is read-only; "
+                             f"use case.replace({{'{self._name}.{key}': ...}})")
+
+    __setitem__ = __setattr__
+
+    def __iter__(self):
+        return iter(self._values)
+
+    def __len__(self):
+        return len(self._values)
+
+    def keys(self):
+        return self._values.keys()
+
+    def items(self):
+        return self._values.items()
+
+    def __eq__(self, other):
+        return dict(self._values) == (dict(other._values) if isinstance(other, _Section) else other)
+
+    def __repr__(self):
+        return f"{self._name}: {self._values!r}"
 
 
 def _restore(text, source, overrides):

@@ -1,5 +1,6 @@
 """Runs: one case integrated by the C++ library, and a run's outputs as numpy arrays."""
 
+import errno
 import json
 import numbers
 import shutil
@@ -266,9 +267,12 @@ class Interrupted(KeyboardInterrupt):
 
 def load(dir):
     """The outputs of the run in `dir` (CSV or run.h5, finished or still
-    running) as a Run. OutputError if `dir` holds no run (for a sweep's
-    directory, saying to read its table with load_sweep)."""
+    running) as a Run. FileNotFoundError if there is no `dir`; OutputError if
+    it holds no run (for a sweep's directory, saying to read its table with
+    load_sweep)."""
     dir = Path(dir)
+    if not dir.exists():
+        raise FileNotFoundError(errno.ENOENT, "no such run directory", str(dir))
     if not _core.has_table(dir, "friction"):
         if (dir / _core.sweep_file).is_file():
             raise OutputError(f"{dir}: a sweep directory: read its {_core.sweep_file} with "

@@ -139,3 +139,26 @@ def test_seed_or_coverage_over_explicit_contacts_is_refused_and_repr_shows_the_p
     random = stickslip.Case.from_dict({"lattice": {"nx": 6, "ny": 6}, "interface.coverage": 0.3})
     assert random.coverage == 11 / 36  # floor(0.3 * 36 + 0.5) contacts
     assert "coverage 0.3056" in repr(random)
+
+
+def test_a_case_reads_by_section_and_key_as_items_or_attributes(pair_file):
+    case = stickslip.Case.from_toml(pair_file)
+    assert case["run"]["average_from"] == case.run.average_from == case.to_dict()["run"]["average_from"]
+    assert case.lattice.nx == 6 and case["interface"]["contacts"][1]["v_star"] == 2.09e-3
+    with pytest.raises(AttributeError, match="read-only"):
+        case.run.t_end = 1.0
+    with pytest.raises(KeyError, match="no such section"):
+        case["runs"]
+    with pytest.raises(AttributeError, match="run.t_edn: no such key"):
+        case.run.t_edn
+
+
+def test_replace_takes_keywords_too_and_a_key_given_twice_is_refused(pair_file):
+    case = stickslip.Case.from_toml(pair_file)
+    assert case.replace(**{"run.t_end": 1e-2}) == case.replace({"run.t_end": 1e-2})
+    assert case.replace(run={"t_end": 1e-2}).run.t_end == 1e-2
+    with pytest.raises(stickslip.CaseError, match="run.t_end: given twice"):
+        case.replace({"run.t_end": 1e-2}, **{"run.t_end": 2e-2})
+    # As a TOML file refuses a duplicate key: which one was meant is not known.
+    with pytest.raises(stickslip.CaseError, match="lattice.nx: given twice"):
+        stickslip.Case.from_dict({"lattice": {"nx": 8}, "lattice.nx": 9})

@@ -66,6 +66,18 @@ def test_to_xarray_labels_time_contact_and_units(pair_run):
     np.testing.assert_array_equal(ds["vx"].sel(contact=1).values, run.traces.vx[:, 1])
     np.testing.assert_array_equal(ds["t"].values, run.friction.t)
     assert ds.attrs["mu"] == run.mu
+    # How far to trust it travels with it: the verdict, its error bar, θ.
+    assert ds.attrs["theta"] == run.summary["theta"]
+    assert ds.attrs["regime"] == run.summary["regime"]["kind"]
+    assert ds.attrs["mu_trusted"] == int(run.mu_trusted)
+    assert ds.attrs["mu_error"] == run.mu_error == run.summary["mu_error"]
+
+
+def test_load_of_a_missing_directory_is_file_not_found(tmp_path):
+    with pytest.raises(FileNotFoundError, match="no such run directory"):
+        stickslip.load(tmp_path / "nonexistent")
+    with pytest.raises(stickslip.OutputError, match="holds no run"):
+        stickslip.load(tmp_path)  # there, but no run in it
 
 
 def test_threads_sets_the_solvers_threads_and_leaves_the_numbers(pair_file):
