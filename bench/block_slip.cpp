@@ -1,5 +1,5 @@
 // One window of a run, continued from a checkpoint with any method and rtol:
-// the verification and the benchmark of a block slip (docs/PERFORMANCE.md,
+// the verification and the benchmark of a block slip (docs/notes/performance-history.md,
 // "Multirate"). Prints JSON: the wall time, the solver statistics, and per
 // contact the first slip's time, the number of slips and the peak speed in
 // the window, and the friction force at its end.

@@ -13,7 +13,7 @@ trajectory for trajectory (the creep and lone slips before a block slip).
 
 `spread`: per run, what a block slip is made of, for windows where no
 trajectory is reproducible (the block slip's nucleation amplifies any
-difference, numerical or physical; docs/PERFORMANCE.md, "Multirate"): when the
+difference, numerical or physical; docs/notes/performance-history.md, "Multirate"): when the
 block slip nucleates (the first slip after the window's first two lone
 slips, counted from the window's start, µs), its slip events, the median
 peak speed of the contacts that slipped, and the friction force at the end.

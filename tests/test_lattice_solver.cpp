@@ -642,7 +642,7 @@ TEST_CASE(
   // kept from the first stage is a poor Newton matrix for the stuck ones, so
   // the later stages take Krylov steps. Each stage must converge, and be
   // exact. (This state converges with GMRES unweighted too; the 15×15×10
-  // multirate run that stalled on it is in docs/PERFORMANCE.md.)
+  // multirate run that stalled on it is in docs/notes/performance-history.md.)
   const System s = make_system(12, 10, 3, forty_contacts());
   LatticeStageSolver solver(s, std::numeric_limits<double>::infinity());
   // A creeping lattice: displacements ~1 nm, velocities ~1 µm/s.

@@ -517,7 +517,7 @@ TEST_CASE(
   // Fig. 8's high-load block slips on 15x15 (112 contacts): multirate steps
   // them apart at the default multirate_min_fast (64); with fewer contacts
   // its steps would be single rate, and dirk's cost the same
-  // (docs/PERFORMANCE.md, "Multirate").
+  // (docs/notes/performance-history.md, "Multirate").
   Case c;
   c.lattice.nx = c.lattice.ny = 15;
   c.lattice.nz = 2;
@@ -543,7 +543,7 @@ TEST_CASE(
   // Lone slips: 15x15 at coverage 0.04 places 9 contacts, each lone, so
   // the partition would step each lone slip apart by itself; auto counts
   // them 9 and stays with dirk, as fast there at equal accuracy
-  // (docs/PERFORMANCE.md).
+  // (docs/PERFORMANCE.md, "Which method `auto` picks, and when to pick another").
   Case sparse = c;
   sparse.interface.coverage = 0.04;
   const auto [lone_slips, few] = choice_for(sparse);

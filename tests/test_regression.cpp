@@ -5,7 +5,7 @@
 // the step sequence). Two kinds of check:
 //   - the run at the default tolerance against the same case at rtol 1e-8,
 //     computed here, with tolerances from the tolerance study
-//     (docs/PERFORMANCE.md) and the ladder measured on this case (below);
+//     (docs/notes/performance-history.md) and the ladder measured on this case (below);
 //   - the run against what MODEL.md predicts without integrating: the load a
 //     stuck contact carries, and the friction law's limits.
 //
@@ -51,7 +51,7 @@ Case one_contact() {
 
 // The same solver with rtol scaled by `factor` (the absolute tolerances
 // follow it), on dirk, the method of the converged references
-// (docs/PERFORMANCE.md; imex at these tolerances takes minutes).
+// (docs/notes/performance-history.md; imex at these tolerances takes minutes).
 SolverParams tightened(SolverParams p, double factor) {
   p.method = Method::dirk;
   p.rtol *= factor;

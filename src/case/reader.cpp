@@ -226,7 +226,7 @@ void read_method(Reader& r, const toml::node& n, const std::string& key, Case& c
 }
 
 void read_linear_solver(Reader& r, const toml::node& n, const std::string& key, Case& c) {
-  // KLU was offered and never finished a case from rest: docs/PERFORMANCE.md.
+  // KLU was offered and never finished a case from rest: docs/notes/performance-history.md.
   if (const auto* s = n.as_string(); s && s->get() == "klu")
     r.fail(n, key,
            "\"klu\" is no longer offered: SUNDIALS' Newton with a sparse LU of the 3D lattice "

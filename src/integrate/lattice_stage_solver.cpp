@@ -284,7 +284,7 @@ constexpr Eigen::Index kMaxMatrixFreeKrylov = 300;
 
 // What an LU of the contacts' 2 N_c × 2 N_c Newton matrix costs, counted in
 // the iterations it saves (measured on 15×15×10 and 30×30×10 and 60×60×10:
-// docs/PERFORMANCE.md).
+// docs/notes/performance-history.md).
 struct LuPrice {
   // In modified-Newton iterations (steps with the kept LU): 2 N_c /
   // kUnknownsPerIteration, at least kMinIterations.
@@ -332,7 +332,7 @@ bool too_slow(double norm, double trial_norm, int it, const LuPrice& price) {
 // dense matrix's 16 N_c² bytes and N_c³ flops.
 namespace {
 // Sites at most this many lattice spacings apart in x and in y are the near
-// field. Measured (docs/PERFORMANCE.md): on 60×60×10 at θ = 0.498 GMRES took
+// field. Measured (docs/notes/performance-history.md): on 60×60×10 at θ = 0.498 GMRES took
 // the same iterations for radii 0 (block Jacobi) to 3, radius 2 a 1.4× slower
 // step than 1 in its larger LU and solves; on 200 contacts at half coverage at
 // γ = 1e-4 (tests/test_lattice_solver.cpp), ~12, ~9 and ~6 iterations a

@@ -35,14 +35,14 @@ MethodChoice choose_method(const System& system, const SolverParams& solver) {
   // and cost what dirk's do (15x15x10, theta 0.04: 39.7 against 40.6 s),
   // more, a block slip costs 2.9x less (30x30x10: 176 against 514 s) and a
   // whole 15x15 point at theta 0.498 the same (207 against 206 s;
-  // docs/PERFORMANCE.md, "Multirate"). Beyond the dense LU's reach too,
+  // docs/notes/performance-history.md, "Multirate"). Beyond the dense LU's reach too,
   // where both go matrix free: on 60x60x10 at coverage 0.498 the first 40 us
   // of a block slip cost dirk 6.1x multirate's CPU (875 against 143 s). Not
   // with patches, which it does not step. Contacts are counted one each, not
   // a lone one as the partition does: on 15x15x10 at theta 0.04 (9 lone
   // contacts) multirate, each lone slip apart, took 1.3x less time than dirk
   // at rtol 1e-5 but was 68x further from a converged run in mu, and at
-  // equal accuracy was no faster (docs/PERFORMANCE.md, "Multirate").
+  // equal accuracy was no faster (docs/notes/performance-history.md, "Multirate").
   const std::size_t contacts = system.contact_set().contacts().size();
   if (system.contact_set().patch() == 1 &&
       contacts >= static_cast<std::size_t>(solver.multirate_min_fast))

@@ -76,7 +76,7 @@ struct MultirateIntegrator::Attempt {
   // friction: its sub-steps' end hardly moves, but their moments do, so a
   // line shifted by the last miss alone counted that change twice, came back
   // with the miss's sign flipped, and the miss then set the coarse step
-  // (60x60x10 at θ = 0.04: ~8e-8 s, docs/PERFORMANCE.md).
+  // (60x60x10 at θ = 0.04: ~8e-8 s, docs/notes/performance-history.md).
   std::vector<std::array<double, 2>> coarse_part, line_part;
   // For the attempts table: the last pass's hand-back measures and the
   // component that decided the verdict.
@@ -123,7 +123,7 @@ MultirateIntegrator::MultirateIntegrator(const System& system, const SolverParam
       // slip (3.4 M Krylov iterations against 7 885), but on 60x60x10 (1 793
       // sites) the dense LU's solves and factorizations took 77 % of a
       // block slip's time and the matrix-free steps went twice as fast
-      // (docs/PERFORMANCE.md, "Multirate at 60x60").
+      // (docs/notes/performance-history.md, "Multirate at 60×60").
       stages_(system, LatticeStageSolver::kMaxGammaLambda,
               LatticeStageSolver::ContactNewton::by_count, options_.threads),
       partition_(system, solver.multirate_min_fast),
@@ -826,7 +826,7 @@ double MultirateIntegrator::advance_to(double t_out, std::span<double> y) {
 // Attempts at the next coarse step until one is accepted: a retry at the same
 // H with more contacts fast, or a shorter step after a failed test. A step
 // that failed here does not grow 5x again at once: after a stage that did not
-// converge the regrown step failed again (docs/PERFORMANCE.md).
+// converge the regrown step failed again (docs/notes/performance-history.md).
 void MultirateIntegrator::take_step() {
   const double exponent = -1.0 / (table_.embedded_order + 1);
   bool failed = false;

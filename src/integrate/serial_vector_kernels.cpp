@@ -10,7 +10,7 @@
 // optimization (its serial kernels keep every loop variable on the stack:
 // `objdump -d libsundials_nvecserial.so.6.4.1`), and a linear sum of two
 // vectors of 13 503 entries took 24 µs there against 3.8 µs for the same loop
-// compiled here (docs/PERFORMANCE.md). ARKODE and CVODE do all their
+// compiled here (docs/notes/performance-history.md). ARKODE and CVODE do all their
 // per-entry work through the vector's operations table, so the kernels below
 // replace the serial vector's entries for every vector the integrators make.
 //

@@ -8,7 +8,7 @@ namespace stickslip {
 namespace {
 
 // Fractions of the physical scales at which a component stops mattering.
-// Measured (docs/PERFORMANCE.md, "Tolerances that follow rtol"): with these,
+// Measured (docs/notes/performance-history.md, "Tolerances that follow rtol"): with these,
 // the slip times of the pairs converge in proportion to rtol for every method.
 constexpr double kVelocityFraction = 0.1;
 constexpr double kDisplacementFraction = 0.1;

@@ -21,7 +21,7 @@ enum class Method { imex, dirk, bdf, erk, rk4, multirate, automatic };
 // How dirk and bdf solve their stage equations: "fft" (= "auto") solves each
 // exactly (the lattice by FFT in x, y and banded solves along z, the contacts
 // by Newton on their coupled speeds). "klu" is refused by the reader, which
-// says why (a sparse LU of the 3D lattice, docs/PERFORMANCE.md).
+// says why (a sparse LU of the 3D lattice, docs/notes/performance-history.md).
 enum class LinearSolver { automatic, fft };
 enum class ContactSelection { all, none, list };  // which contacts an output covers
 // The contact law ([interface] law): "paper", MODEL.md §6's φ(r) = exp(−c
@@ -106,7 +106,7 @@ struct SolverParams {
   long max_steps = 50'000'000;     // over the whole run
   // method = "multirate": the fewest fast contacts it steps apart on their
   // own sub-steps; with fewer, one step follows them all (single rate),
-  // since a single slip costs less so (docs/PERFORMANCE.md, "Multirate");
+  // since a single slip costs less so (docs/notes/performance-history.md, "Multirate");
   // after a step with contacts apart, an eighth as many (a block slip's tail).
   // A lone contact (at most one other contact around it) counts 8.
   long multirate_min_fast = 64;
@@ -116,14 +116,14 @@ struct SolverParams {
   // OpenMP threads of one run (1: serial; 0: every core the process may use
   // where the lattice is large enough to gain, resolved by resolved_threads).
   // Results do not depend on it, bit for bit; what it gains:
-  // docs/PERFORMANCE.md.
+  // docs/PERFORMANCE.md, "Threads".
   int threads = 0;
 };
 
 // Below this many lattice nodes, [solver] threads = 0 means one thread: on
 // 6×6×4 (144 nodes) two threads made dirk, bdf and imex 1.2–1.4× slower
 // (their parallel loops too small to pay for waking a thread), while
-// 10×10×10 gained 1.33× and 15×15×10 1.3–1.4× (docs/PERFORMANCE.md).
+// 10×10×10 gained 1.33× and 15×15×10 1.3–1.4× (docs/notes/performance-history.md).
 inline constexpr std::int64_t kMinNodesForThreads = 1000;
 
 // [solver] threads with 0 resolved for a lattice of `nodes` nodes: OpenMP's

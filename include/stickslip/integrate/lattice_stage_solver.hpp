@@ -38,7 +38,7 @@ class LatticeStageSolver {
   // (uses_dense_lu); the others are for tests.
   enum class ContactNewton { by_count, dense_lu, matrix_free };
   // The rule: a dense LU up to this many friction sites, matrix free above
-  // (measured: docs/PERFORMANCE.md, "The contacts' Newton steps without a
+  // (measured: docs/notes/performance-history.md, "The contacts' Newton steps without a
   // dense matrix").
   // 1000, not the ~200 where the two cost the same per step in creep: over a
   // whole 30x30x10 block slip (448 sites) the matrix-free steps took 4.1 M

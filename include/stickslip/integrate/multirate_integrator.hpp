@@ -2,7 +2,7 @@
 // method = "multirate": contacts on their own clocks.
 //
 // In a block slip every contact's start and stop used to collapse the one
-// global step (docs/PERFORMANCE.md, "Multirate", "Why"):
+// global step (docs/notes/performance-history.md, "Multirate", "Why"):
 // a re-sticking contact's speed halves at every step for ~15 ns, and the
 // whole lattice was stepped at 1e-11 s through it. Here a coarse step of
 // dirk's ESDIRK advances the lattice and the slow contacts, with the exact
@@ -97,13 +97,13 @@ class MultirateIntegrator final : public Integrator {
   static constexpr int kCouplingIterations = 4;
   // The coupling error (step 5, weighted) a fast contact may carry: like a
   // local error, 1. At 0.1 a 15×15 block slip took 36 % more coarse steps
-  // and was no more accurate against a converged run (docs/PERFORMANCE.md).
+  // and was no more accurate against a converged run (docs/notes/performance-history.md).
   static constexpr double kCouplingTolerance = 1.0;
   // A coarse step that could grow by a factor in [1, kKeepStep] keeps its
   // size, as ARKODE's fixed-step bounds (the same [1, 1.5]) keep dirk's: a
   // new H means a new γ, and LatticeSolver::set_gamma refactors every mode
   // and rebuilds the surface Green's function. Whole theta05 1.09× faster,
-  // its block slip 1.09×, the 30×30 one 1.04× (docs/PERFORMANCE.md).
+  // its block slip 1.09×, the 30×30 one 1.04× (docs/notes/performance-history.md).
   static constexpr double kKeepStep = 1.5;
 
  private:
@@ -196,7 +196,7 @@ class MultirateIntegrator final : public Integrator {
   // along its sub-steps; where its force changes within a coarse step the
   // two differ. Where slips are lone, this summed over the run is, but for
   // the coarse steps' own error, the energy audit's residual times the
-  // drive's work; in block slips it is a part of it (docs/PERFORMANCE.md,
+  // drive's work; in block slips it is a part of it (docs/notes/performance-history.md,
   // "The μ floor, what it is and what it is not").
   struct Counts {
     long substeps = 0, substep_failures = 0, fast_contact_steps = 0, coupling_iterations = 0;

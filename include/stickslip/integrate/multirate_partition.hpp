@@ -12,7 +12,7 @@
 // counted by its weight (contact_weights), and the step is single rate: on
 // 15x15x10 (theta05, 112 contacts) the whole run took 96.0 s with every fast
 // contact stepped apart, 79.0 / 77.9 / 70.0 / 60.9 / 57.2 s from 4 / 8 / 16 /
-// 32 / 64 on, and dirk 70.3 s (docs/PERFORMANCE.md). After a step with
+// 32 / 64 on, and dirk 70.3 s (docs/notes/performance-history.md). After a step with
 // contacts apart the bar is kStayApart times lower.
 
 #include <array>
@@ -32,14 +32,14 @@ class MultiratePartition {
   // loading's small clusters still step single rate, where stepping them
   // apart cost more). At 8: a 30×30 block slip 1.34× faster (61.3 against
   // 82 s), the whole 15×15 theta05 run 1.14× (35.7 against 40.6 s); at 16,
-  // 36.3 s (docs/PERFORMANCE.md).
+  // 36.3 s (docs/notes/performance-history.md).
   static constexpr long kStayApart = 8;
   // A lone fast contact (at most kLoneNeighbours other contacts among the
   // eight sites around its own) counts kLoneShare times toward min_fast: it
   // turns few slow neighbours fast under its slip, so it is cheap to step
   // apart, while lone slips each collapsed the single-rate step. On a
   // 60×60×10 θ = 0.04 window: 1.16× with none around it, 1.32× with at most
-  // one (docs/PERFORMANCE.md).
+  // one (docs/notes/performance-history.md).
   static constexpr long kLoneShare = 8;
   static constexpr int kLoneNeighbours = 1;
   // Steps a contact stays fast after a coarse attempt could not follow it
@@ -57,7 +57,7 @@ class MultiratePartition {
   // 30x30 1.34x, 15x15 (9 contacts) 1.14x (though on 15x15 no faster than
   // dirk at equal accuracy, so `auto` leaves that to dirk); where few are
   // lone it cost (15x15 θ = 0.498, 3.5 % lone: 1.35x slower), and so on a
-  // pair, whose 16 falls short of the default 64 (docs/PERFORMANCE.md).
+  // pair, whose 16 falls short of the default 64 (docs/notes/performance-history.md).
   static std::vector<long> contact_weights(const System& system, long min_fast);
 
   // The fast contacts (sites, increasing) of a coarse step of size H from
