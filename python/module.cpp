@@ -160,6 +160,19 @@ py::dict sweep(const fs::path& file, const fs::path& out, int jobs,
   return d;
 }
 
+// A message of the library that names a command-line flag, as run() spells
+// it: --overwrite is overwrite=True, --restart restart=True.
+std::string in_python_words(std::string text) {
+  for (const auto& [flag, keyword] :
+       {std::pair<std::string, std::string>{"--overwrite", "overwrite=True"},
+        {"--restart", "restart=True"},
+        {"--any-version", "any_version=True"}})
+    for (std::size_t at = text.find(flag); at != std::string::npos;
+         at = text.find(flag, at + keyword.size()))
+      text.replace(at, flag.size(), keyword);
+  return text;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_core, m) {
@@ -180,7 +193,7 @@ PYBIND11_MODULE(_core, m) {
     } catch (const CaseError& e) {
       case_error(e.what());
     } catch (const OutputError& e) {
-      output_error(e.what());
+      output_error(in_python_words(e.what()).c_str());
     } catch (const IntegrationError& e) {
       integration_error(e.what());
     }

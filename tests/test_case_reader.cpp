@@ -133,6 +133,18 @@ TEST_CASE("output.dir: absolute paths are kept", "[case]") {
   CHECK(parse("[output]\ndir = \"/tmp/run\"").output.dir == std::filesystem::path("/tmp/run"));
 }
 
+TEST_CASE("output.dir is relative to where it was written: the case file, or the command line",
+          "[case]") {
+  // In the file: next to the file. With --set: the working directory, as --out
+  // (it was next to the case file, so --set output.dir=x and --out x differed).
+  CHECK(parse("[output]\ndir = \"x\"\n").output.dir == std::filesystem::path("cases/x"));
+  CHECK(parse("", {"output.dir=\"x\""}).output.dir == std::filesystem::path("x"));
+  CHECK(parse("[output]\ndir = \"y\"\n", {" output.dir = \"x\""}).output.dir ==
+        std::filesystem::path("x"));
+  REQUIRE_THROWS_WITH(parse("", {"output.dir=\"\""}),
+                      Catch::Contains("output.dir: must not be empty"));
+}
+
 TEST_CASE("malformed TOML names the file and line", "[case]") {
   REQUIRE_THROWS_AS(parse("[lattice]\nnx = 3\nny = = 4\n"), CaseError);
   REQUIRE_THROWS_WITH(parse("[lattice]\nnx = 3\nny = = 4\n"),

@@ -119,7 +119,8 @@ TEST_CASE("an output directory holding results is refused without --overwrite", 
   CHECK(r.code == 2);
   CHECK(lines(r.err) == 1);
   CHECK_THAT(r.err, StartsWith("error: " + out.string() + ": "));
-  CHECK_THAT(r.err, Contains("--overwrite"));
+  CHECK_THAT(r.err, Contains("pass --overwrite to replace them"));
+  CHECK_THAT(r.err, !Contains("Python"));  // the command line speaks its own language only
   CHECK(r.out.empty());
   CHECK(slurp(out / "summary.json") == "results of an earlier run\n");
   CHECK(box.snapshot() == before);
@@ -129,6 +130,18 @@ TEST_CASE("an output directory holding results is refused without --overwrite", 
                               "--set", "lattice.nz=1"});
   CHECK(bad.code == 2);
   CHECK(bad.err == "error: --set lattice.nz: must be >= 2, got 1\n");
+  CHECK(box.snapshot() == before);
+}
+
+TEST_CASE("an empty --out is bad input, not the default directory", "[cli]") {
+  Sandbox box;
+  const fs::path file = box.write("tiny.toml", kTiny);
+  const auto before = box.snapshot();
+  const Result r = box.run({"run", file.string(), "--out", "", "--quiet"});
+  CHECK(r.code == 2);
+  CHECK(r.err == "error: --out: an empty path; name a directory (see stickslip run --help)\n");
+  CHECK(box.snapshot() == before);  // out/tiny was not written
+  CHECK(box.run({"sweep", file.string(), "--out", ""}).code == 2);
   CHECK(box.snapshot() == before);
 }
 

@@ -371,6 +371,8 @@ def run(case, out=None, progress=False, overwrite=False, restart=False,
             raise ValueError(f"threads: expected a whole number >= 0, got {threads!r}")
         case = case.replace({"solver.threads": int(threads)})
     temporary = out is None
+    if not temporary and str(out) == "":
+        raise OutputError("out: an empty path; name a directory (or leave out `out` for none)")
     if restart and temporary:
         raise OutputError("restart=True needs `out`: the directory of the interrupted run")
     if any_version and not restart:

@@ -148,8 +148,11 @@ def test_each_slip_is_its_events_and_what_the_dense_traces_show_in_between(pair_
 def test_bad_output_and_failed_runs_raise_the_command_lines_errors(pair_file, tmp_path):
     case = stickslip.Case.from_toml(pair_file)
     stickslip.run(case.replace({"run.t_end": 2e-4, "run.average_from": 1e-4}), out=tmp_path / "r")
-    with pytest.raises(stickslip.OutputError, match=r"overwrite=True"):
+    with pytest.raises(stickslip.OutputError, match=r"pass overwrite=True to replace them") as refused:
         stickslip.run(case, out=tmp_path / "r")  # it holds results
+    assert "--overwrite" not in str(refused.value)  # the command line's spelling is not Python's
+    with pytest.raises(stickslip.OutputError, match="empty path"):
+        stickslip.run(case, out="")  # not the working directory
     with pytest.raises(stickslip.IntegrationError):
         stickslip.run(case.replace({"solver.max_steps": 20}))
 

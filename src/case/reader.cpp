@@ -500,7 +500,9 @@ const std::vector<Entry>& schema() {
        {read_dir, "a path, relative to the case file",
         [](const Case& c) { return nlohmann::json(c.output.dir.string()); }},
        "",
-       "output directory; unset: out/ and the case file's stem, in the working directory"},
+       "output directory, relative to the case file's directory (given with --set: to the "
+       "working directory, as --out); unset: out/ and the case file's stem, in the working "
+       "directory"},
       {"output", "interval", real(&Case::output, &OutputParams::interval, kPositive), "s",
        "time between rows of friction.csv and traces.csv"},
       {"output", "max_rows", integer(&Case::output, &OutputParams::max_rows, 1), "",
@@ -892,7 +894,15 @@ Case parse_case(std::string_view toml_text, const std::filesystem::path& source,
   c.source = source;
   read_tables(r, root, c);
   check_consistency(r, c);
-  if (!c.output.dir.empty() && c.output.dir.is_relative())
+  // A path is relative to where it was written: in the case file, to the
+  // file's directory; on the command line (--set, or a Python dict of
+  // changes), to the working directory, as --out is.
+  const bool dir_overridden = std::any_of(overrides.begin(), overrides.end(), [](const auto& o) {
+    const auto key = o.substr(0, o.find('='));
+    const auto first = key.find_first_not_of(" \t"), last = key.find_last_not_of(" \t");
+    return first != std::string::npos && key.substr(first, last - first + 1) == "output.dir";
+  });
+  if (!c.output.dir.empty() && c.output.dir.is_relative() && !dir_overridden)
     c.output.dir = source.parent_path() / c.output.dir;
   return c;
 }

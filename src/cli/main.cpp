@@ -392,15 +392,24 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("stickslip ") + stickslip::kVersion +
                                         " (git commit " + stickslip::kGitCommit + ")");
+  // An empty path would silently mean the default (or the working directory).
+  const CLI::Validator not_empty(
+      [](const std::string& path) {
+        return path.empty() ? std::string("an empty path; name a directory") : std::string();
+      },
+      "DIR");
   RunArguments r;
   CLI::App* run = app.add_subcommand("run", "integrate a case file and write its outputs");
   run->add_option("case", r.case_file, "the case file (TOML)")->required();
-  auto* out_option = run->add_option(
-      "--out", r.out, "output directory (default: [output] dir, else out/<case name>)");
+  auto* out_option = run->add_option("--out", r.out,
+                                     "output directory (default: [output] dir, else out/<case "
+                                     "name>); relative to the working directory")
+                         ->check(not_empty);
   run->add_option("--restart", r.restart,
                   "continue the interrupted run in this output directory from its checkpoint, "
                   "or a finished one that kept its final state to a later run.t_end")
-      ->excludes(out_option);
+      ->excludes(out_option)
+      ->check(not_empty);
   run->add_option("--set", r.sets, "override a case value: section.key=value (repeatable)");
   run->add_flag("--overwrite", r.overwrite,
                 "replace the results of an earlier run in the output directory");
@@ -420,7 +429,8 @@ int main(int argc, char** argv) {
   compare->add_option("dir_a", dir_a, "output directory of run A (the reference)")->required();
   compare->add_option("dir_b", dir_b, "output directory of run B")->required();
   compare->add_option("--rtol", rtol, "relative tolerance (default 1e-2)");
-  compare->add_option("--out", compare_out, "JSON report (default DIR_B/compare.json)");
+  compare->add_option("--out", compare_out, "JSON report (default DIR_B/compare.json)")
+      ->check(not_empty);
   std::string sweep_file, sweep_out;
   std::vector<std::string> sweep_sets;
   int jobs = 0;
@@ -429,7 +439,8 @@ int main(int argc, char** argv) {
   CLI::App* sweep = app.add_subcommand(
       "sweep", "run every combination of a sweep file's values; skips points already finished");
   sweep->add_option("sweep_file", sweep_file, "the sweep file (TOML)")->required();
-  sweep->add_option("--out", sweep_out, "output directory (default out/<sweep name>)");
+  sweep->add_option("--out", sweep_out, "output directory (default out/<sweep name>)")
+      ->check(not_empty);
   sweep
       ->add_option("--jobs", jobs,
                    "points run at once (default: the number of cores; 1 per MPI rank)")

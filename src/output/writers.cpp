@@ -20,10 +20,9 @@ void prepare_output_dir(const std::filesystem::path& dir, bool overwrite,
     const fs::path file = dir / name;
     if (!fs::exists(file, ec)) continue;
     if (!overwrite)
-      throw OutputError(
-          dir.string() + ": holds results of an earlier run (" + name +
-          "); pass --overwrite (from Python, overwrite=True) to replace them, or choose another "
-          "output directory");
+      throw OutputError(dir.string() + ": holds results of an earlier run (" + name +
+                        "); pass --overwrite to replace them, or choose another "
+                        "output directory");
     if (!fs::is_regular_file(file, ec))
       throw OutputError(file.string() + ": is not a regular file; refusing to replace it");
     fs::remove(file, ec);

@@ -66,7 +66,7 @@ void refuse_resumable(const Case& c, const std::filesystem::path& dir) {
                       " extends"
                 : "an interrupted run of this case (" + std::string(kCheckpointFile) +
                       " at t = " + seconds(checkpoint->t) + ")") +
-      ": continue it with --restart (from Python, restart=True), or pass --overwrite to start "
+      ": continue it with --restart, or pass --overwrite to start "
       "afresh";
   const bool other_version = checkpoint->git_commit != kGitCommit;
   if (other_version)
