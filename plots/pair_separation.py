@@ -55,7 +55,8 @@ def main() -> int:
         material = summary["case"]["material"]
         nu = material["poisson_ratio"]
         g2_over_g1 = (1 + 2 * nu) if material["grad_div"] == "paper" else 1 / (1 - 2 * nu)
-        t_transverse = summary["synchronization"]["window"]  # d / c_t
+        sync = summary["synchronization"]
+        t_transverse = sync.get("coincidence_window", sync.get("window"))  # d / c_t (older: "window")
         direction = "x" if dy == 0 else ("diagonal" if dx == dy else "other")
         points.append({
             "sep": math.hypot(dx, dy), "dir": direction,

@@ -299,7 +299,8 @@ TEST_CASE("to_json: every field, NaN and absent values as null", "[analysis]") {
   CHECK(s["lag_mean"] == 0.125);
   CHECK(s["lag_min"] == 0.125);
   CHECK(s["lag_max"] == 0.125);
-  CHECK(s["window"] == 0.25);
+  CHECK(s["coincidence_window"] == 0.25);  // a time; events.window is an interval
+  CHECK_FALSE(s.contains("window"));
   CHECK(s["coincident_fraction"] == 1.0);
   CHECK(s["xcorr_peak"].is_null());
   CHECK(s["xcorr_lag"].is_null());

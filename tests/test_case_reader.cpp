@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "stickslip/case/reader.hpp"
+#include "stickslip/output/checkpoint.hpp"
 #include "temp_dir.hpp"
 
 using namespace stickslip;
@@ -269,6 +270,19 @@ TEST_CASE("average_from = \"auto\" is read, written back, and nothing else is a 
                           Contains(" or \"auto\", got \"later\""));
 }
 
+TEST_CASE("a case written with its unset values spelt out is the same case", "[case]") {
+  // Summaries and checkpoints written before unset values were left out carry
+  // audit_bound 0, and coverage and seed beside listed contacts: still the same case.
+  const Case listed = parse("[interface]\ncontacts = [{ site = [4, 2], v_star = 4.75e-4 }]\n");
+  nlohmann::json older = to_json(listed);
+  older["solver"]["audit_bound"] = 0.0;
+  older["interface"]["coverage"] = 0.0089;
+  older["interface"]["seed"] = 1;
+  CHECK(same_case(older, listed));
+  older["solver"]["audit_bound"] = 1e-3;  // a bound that was set is a difference
+  CHECK_FALSE(same_case(older, listed));
+}
+
 TEST_CASE("coverage must give at least one contact", "[case]") {
   CHECK(parse("[lattice]\nnx = 1\nny = 1\n[interface]\ncoverage = 0.5").interface.coverage == 0.5);
   REQUIRE_THROWS_WITH(parse("[lattice]\nnx = 2\nny = 2\n[interface]\ncoverage = 0.1\n"),
@@ -471,7 +485,13 @@ traces = [1]
   CHECK(j.at("lattice").at("ny") == 15);  // defaults filled in
   CHECK(j.at("material").at("grad_div") == "navier");
   CHECK(j.at("material").at("poisson_ratio") == 0.3);
-  CHECK(j.at("interface").at("seed") == 1);
+  // Listed contacts replace coverage and seed: the resolved case shows neither.
+  CHECK_FALSE(j.at("interface").contains("seed"));
+  CHECK_FALSE(j.at("interface").contains("coverage"));
+  // Unset values are left out, not written as a value that reads differently.
+  CHECK_FALSE(to_json(parse("")).at("solver").contains("audit_bound"));
+  CHECK_FALSE(to_json(parse("")).at("output").contains("dir"));
+  CHECK(to_json(parse("")).at("interface").at("seed") == 1);
   CHECK(j.at("interface").at("contacts") ==
         nlohmann::json::parse(
             R"([{"site": [4, 2], "v_star": 4.75e-4}, {"site": [1, 5], "v_star": 1e-3}])"));

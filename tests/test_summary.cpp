@@ -149,6 +149,12 @@ TEST_CASE("an older summary without the newer fields reads with them empty", "[s
   CHECK_FALSE(s.events);
   CHECK_FALSE(s.synchronization);
   CHECK(s.mu == 5.25);
+  // The coincidence window was "window" before it was named apart from events.window.
+  nlohmann::json renamed = to_json(full_summary());
+  auto& sync = renamed["synchronization"];
+  sync["window"] = sync["coincidence_window"];
+  sync.erase("coincidence_window");
+  CHECK(summary_from_json(renamed).synchronization->window == 1.2e-5);
 }
 
 TEST_CASE("a summary with a field missing or of the wrong type names it", "[summary]") {

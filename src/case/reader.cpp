@@ -340,6 +340,15 @@ Rule boolean(bool OutputParams::*m) {
           "true, false", [=](const Case& c) { return nlohmann::json(c.output.*m); }};
 }
 
+// interface.coverage and seed place contacts at random: a case that lists its
+// contacts uses neither, so its resolved form does not show them.
+Rule unless_listed(Rule rule) {
+  rule.write = [write = rule.write](const Case& c) {
+    return c.interface.contacts.empty() ? write(c) : nlohmann::json();
+  };
+  return rule;
+}
+
 // run.average_from: a time, or "auto" (found from F_f at the end of the run).
 Rule average_from_rule() {
   Rule rule = real(&Case::run, &RunParams::average_from, kNonNegative);
@@ -403,9 +412,9 @@ const std::vector<Entry>& schema() {
       {"damping", "contact", real(&Case::damping, &DampingParams::contact, kNonNegative), "",
        "η̂_c = η_c/ω0: viscous damping of each contact (MODEL.md §6)"},
       {"interface", "coverage",
-       real(&Case::interface, &InterfaceParams::coverage, Range{0, 1, true, false}), "",
-       "θ requested: N_c = floor(θ Nx Ny / R² + 0.5) contacts placed at random"},
-      {"interface", "seed", integer(&Case::interface, &InterfaceParams::seed, 0), "",
+       unless_listed(real(&Case::interface, &InterfaceParams::coverage, Range{0, 1, true, false})),
+       "", "θ requested: N_c = floor(θ Nx Ny / R² + 0.5) contacts placed at random"},
+      {"interface", "seed", unless_listed(integer(&Case::interface, &InterfaceParams::seed, 0)), "",
        "seed of the random placement: sites and their v*"},
       {"interface", "shear_stress",
        real(&Case::interface, &InterfaceParams::shear_stress, kPositive), "Pa",
@@ -492,13 +501,16 @@ const std::vector<Entry>& schema() {
        "one (at most one contact on the eight sites around it) counting 8, or the whole bar where "
        "most contacts are lone and they count it; with fewer, the whole step follows them (single "
        "rate); after a step with contacts apart, 1/8 as many"},
-      {"solver", "audit_bound", real(&Case::solver, &SolverParams::audit_bound, kPositive), "",
+      {"solver", "audit_bound", optional_real(&Case::solver, &SolverParams::audit_bound, kPositive),
+       "",
        "largest accepted |energy-audit residual| at t_end, beyond which the run fails; unset: 100 "
        "× rtol, or 1e-4 for a fixed step"},
       {"output",
        "dir",
        {read_dir, "a path, relative to the case file",
-        [](const Case& c) { return nlohmann::json(c.output.dir.string()); }},
+        [](const Case& c) {  // unset: not written (a case file cannot spell it empty)
+          return c.output.dir.empty() ? nlohmann::json() : nlohmann::json(c.output.dir.string());
+        }},
        "",
        "output directory, relative to the case file's directory (given with --set: to the "
        "working directory, as --out); unset: out/ and the case file's stem, in the working "

@@ -251,7 +251,8 @@ nlohmann::json to_json(const Synchronization& s) {
           {"lag_mean", number_or_null(s.lag_mean)},
           {"lag_min", number_or_null(s.lag_min)},
           {"lag_max", number_or_null(s.lag_max)},
-          {"window", number_or_null(s.window)},
+          // Not "window": events.window is the averaging interval, this a time.
+          {"coincidence_window", number_or_null(s.window)},
           {"coincident_fraction", number_or_null(s.coincident_fraction)},
           {"xcorr_peak", number_or_null(s.xcorr_peak)},
           {"xcorr_lag", number_or_null(s.xcorr_lag)}};

@@ -53,7 +53,15 @@ nlohmann::json restart_identity(const nlohmann::json& case_json) {
     id["output"].erase("max_rows");  // a guard, not a parameter
   }
   if (id.contains("run")) id["run"].erase("checkpoint_every");  // may change between attempts
-  if (id.contains("solver")) id["solver"].erase("threads");     // changes no number, bit for bit
+  // Written before unset values were left out: audit_bound 0 is unset, and a
+  // case listing its contacts uses no coverage or seed.
+  if (id.contains("solver") && id["solver"].value("audit_bound", 1.0) == 0.0)
+    id["solver"].erase("audit_bound");
+  if (id.contains("interface") && id["interface"].contains("contacts")) {
+    id["interface"].erase("coverage");
+    id["interface"].erase("seed");
+  }
+  if (id.contains("solver")) id["solver"].erase("threads");  // changes no number, bit for bit
   return id;
 }
 

@@ -49,7 +49,8 @@ Synchronization synchronization_from_json(const nlohmann::json& j) {
   s.lag_mean = number(j, "lag_mean");
   s.lag_min = number(j, "lag_min");
   s.lag_max = number(j, "lag_max");
-  s.window = number(j, "window");
+  // "window" in summaries written before it was named apart from events.window.
+  s.window = number(j, j.contains("coincidence_window") ? "coincidence_window" : "window");
   s.coincident_fraction = number(j, "coincident_fraction");
   s.xcorr_peak = optional_number(j, "xcorr_peak");
   s.xcorr_lag = optional_number(j, "xcorr_lag");
