@@ -86,9 +86,12 @@ def require_slips(run: Path):
     if not (run / "summary.json").is_file():
         fail(f"{run / 'summary.json'}: not found (not a finished run's directory)")
     events = json.loads((run / "summary.json").read_text())["case"]["output"]["events"]
-    if events != "all" or read_table(run, "slips") is None:
-        fail(f"{run}: no slips of every contact ({where(run, 'slips')}, [output] events = "
-             f"{json.dumps(events)}); the map needs them: run the case with [output] events = \"all\"")
+    if events != "all":
+        fail(f"{run}: no slips of every contact ([output] events = {json.dumps(events)}); the map "
+             "needs them: run the case with [output] events = \"all\"")
+    if read_table(run, "slips") is None:
+        fail(f"{run}: no slips ({where(run, 'slips')} not found); the map needs every contact's: "
+             "run the case with [output] events = \"all\"")
 
 
 def require_movie(run: Path, summary, contacts):
