@@ -61,7 +61,7 @@ def slip_clusters(slip_start, slip_end):
 def block_slips(t, f, slip_start, slip_end, slip_contact, contacts, t_from, found=None):
     """The block slips of F_f(t) in [t_from, t[-1]], each a dict (F_f's peak
     and trough, the span of the slips chained through the drop, how many slips
-    and contacts); the falls' times; the window's mean of F_f; and which slips
+    and contacts, and which slips: "members", indices into slip_start); the falls' times; the window's mean of F_f; and which slips
     belong to a block slip."""
     keep = t >= t_from
     t, f = t[keep], f[keep]
@@ -96,6 +96,7 @@ def block_slips(t, f, slip_start, slip_end, slip_contact, contacts, t_from, foun
             "t_peak": t0, "F_peak": f[i_peak], "t_trough": t1, "F_trough": f[i_trough],
             "first": first, "last": last, "slips": len(members),
             "contacts": len(taking_part), "fraction": len(taking_part) / contacts,
+            "members": members,  # indices of its slips in the slip arrays
         })
     return rows, falls, mean, in_block
 

@@ -9,10 +9,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <iomanip>
 #include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <regex>
+#include <set>
 #include <sstream>
 
 #include "sandbox.hpp"
@@ -22,6 +24,7 @@
 namespace test = stickslip::test;
 
 using stickslip::member_column;
+using stickslip::read_run_columns;
 using stickslip::read_run_table;
 using stickslip::TraceTable;
 using test::Sandbox;
@@ -255,7 +258,7 @@ TEST_CASE("fig8.py, fig10.py, traces.py and pair_separation.py plot what the run
                          Catch::Contains("diagonal separation 2.83 a"));
 }
 
-// [slow]: 24 Python start-ups, ~1 min on two busy cores.
+// [slow]: 26 Python start-ups, ~1 min on two busy cores.
 TEST_CASE(
     "every plot script and example answers --help with its usage, a missing directory with "
     "not found",
@@ -263,12 +266,13 @@ TEST_CASE(
   Sandbox box("stickslip_plots_");
   // Each script with as many directories as it needs, all missing.
   const std::vector<std::pair<std::string, std::string>> scripts{
-      {"block_slips.py", "nowhere"}, {"epsilon.py", "nowhere"},
-      {"fig7.py", "nowhere"},        {"fig8.py", "nowhere nowhere2"},
-      {"fig9.py", "nowhere"},        {"fig10.py", "nowhere nowhere2"},
-      {"finite_size.py", "nowhere"}, {"pair_separation.py", "nowhere"},
-      {"patch_size.py", "nowhere"},  {"spectra.py", "nowhere"},
-      {"traces.py", "nowhere"},      {"work_precision.py", "nowhere"}};
+      {"block_slip_map.py", "nowhere"},  {"block_slips.py", "nowhere"},
+      {"epsilon.py", "nowhere"},         {"fig7.py", "nowhere"},
+      {"fig8.py", "nowhere nowhere2"},   {"fig9.py", "nowhere"},
+      {"fig10.py", "nowhere nowhere2"},  {"finite_size.py", "nowhere"},
+      {"pair_separation.py", "nowhere"}, {"patch_size.py", "nowhere"},
+      {"spectra.py", "nowhere"},         {"traces.py", "nowhere"},
+      {"work_precision.py", "nowhere"}};
   // No script in plots/ is left out (the modules' names begin with '_', and run_tables.py).
   std::size_t listed = 0;
   for (const auto& entry : fs::directory_iterator(fs::path(STICKSLIP_SOURCE_DIR) / "plots")) {
@@ -768,4 +772,170 @@ TEST_CASE("block_slips.py refuses a run whose events were not all located", "[pl
   CHECK(r.code == 2);
   CHECK_THAT(r.out, Catch::Contains("events = \"all\""));
   CHECK_FALSE(fs::exists(box.work / "run" / "block_slips.csv"));
+}
+
+namespace {
+
+// The column `name` of `columns` (read_run_columns), or a failed test.
+const std::vector<double>& named(const stickslip::NamedColumns& columns, const std::string& name) {
+  for (const auto& [n, values] : columns)
+    if (n == name) return values;
+  FAIL("no column " << name);
+  throw;
+}
+
+}  // namespace
+
+// [slow]: a 1.5 s run and four Python start-ups (the GIF's ~70 frames ~4 s).
+TEST_CASE("block_slip_map.py: the contacts of a real run's block slip, its front and its movie",
+          "[slow][plots]") {
+  Sandbox box("stickslip_plots_");
+  // 18 contacts on 6x6x4 from rest: block slips at 4.16 and 6.84 ms, both
+  // wholly in the window [3, 7.5] ms.
+  box.write("tiny.toml", R"([lattice]
+nx = 6
+ny = 6
+nz = 4
+[interface]
+coverage = 0.5
+[run]
+t_end = 7.5e-3
+average_from = 3e-3
+[output]
+interval = 1e-6
+traces = "all"
+)");
+  REQUIRE(box.run({"run", "tiny.toml", "--out", "run", "--quiet", "--threads", "1"}).code == 0);
+  REQUIRE(python(box, "block_slips.py", "run").code == 0);
+  const auto census = read_run_columns(box.work / "run", "block_slips");
+  REQUIRE(named(census, "first_onset").size() == 2);
+  const auto slips = read_run_columns(box.work / "run", "slips");
+  const auto& t_start = named(slips, "t_start");
+  const auto& contact = named(slips, "contact");
+
+  for (const int n : {0, 1}) {
+    INFO("block slip " << n);
+    const auto r = python(box, "block_slip_map.py", "run --slip " + std::to_string(n));
+    INFO(r.out);
+    REQUIRE(r.code == 0);
+    check_png(box.work / "run" / "block_slip_map.png");
+    // The contacts it says slipped: those of slips.csv's rows starting in the
+    // census's span of that block slip, each counted once.
+    const double first = named(census, "first_onset")[n];
+    const double last = named(census, "last_arrest")[n];
+    std::set<int> in_span;
+    for (std::size_t i = 0; i < t_start.size(); ++i)
+      if (t_start[i] >= first * (1 - 1e-9) && t_start[i] <= last * (1 + 1e-9))
+        in_span.insert(static_cast<int>(contact[i]));
+    REQUIRE_FALSE(in_span.empty());
+    std::smatch m;
+    REQUIRE(std::regex_search(
+        r.out, m,
+        std::regex(
+            R"(block slip (\d+) .*: (\d+) of 18 contacts slipped.* front speed (\S+) ± (\S+) m/s)")));
+    CHECK(m[1].str() == std::to_string(n));
+    CHECK(std::stoul(m[2].str()) == in_span.size());
+    // Faster than nothing, and within the lattice's elastic wave speeds'
+    // range: c_t = 57.7 m/s, the front runs at 100-odd m/s on 6x6x4.
+    CHECK(std::stod(m[3].str()) > 20.0);
+    CHECK(std::stod(m[3].str()) < 1000.0);
+    CHECK(std::stod(m[4].str()) > 0.0);
+  }
+
+  // Past the last block slip: a one-line error naming the run and the count.
+  const auto beyond = python(box, "block_slip_map.py", "run --slip 2");
+  CHECK(beyond.code == 2);
+  CHECK(test::lines(beyond.out) == 1);
+  CHECK_THAT(beyond.out, Catch::Contains("error: run: no block slip 2: the run has 2 block slips"));
+
+  // The movie: a GIF of the contacts' speeds, a frame per traced row of the slip.
+  fs::remove(box.work / "run" / "block_slip_map.png");
+  const auto film = python(box, "block_slip_map.py", "run --movie");
+  INFO(film.out);
+  REQUIRE(film.code == 0);
+  check_png(box.work / "run" / "block_slip_map.png");
+  const std::string gif = slurp(box.work / "run" / "block_slip_0.gif");
+  CHECK(gif.substr(0, 6) == "GIF89a");
+  std::smatch frames;
+  REQUIRE(std::regex_search(film.out, frames, std::regex(R"(block_slip_0\.gif \((\d+) frames\))")));
+  // The slip lasts ~57 µs, traced every µs, with a tenth of it either side.
+  CHECK(std::stoi(frames[1].str()) > 40);
+  CHECK(gif.size() > 10'000);
+}
+
+TEST_CASE("block_slip_map.py: the front speed on a torus, and what it refuses", "[plots]") {
+  Sandbox box("stickslip_plots_");
+  // F_f's sawtooth of the census test (its fall at 15 ms is the one block
+  // slip with slips), and a front made up: on a 15x15 lattice of spacing
+  // 1e-4 m, contact 0 at (1, 1) slips first, at 14.9 ms; each other contact
+  // 10 µs later plus its distance over 50 m/s, the distance taken across the
+  // periodic edges where that is shorter: (14, 1) is 2 spacings away, not 13.
+  write_census_run(box.work / "run", "none");
+  nlohmann::json summary = nlohmann::json::parse(slurp(box.work / "run" / "summary.json"));
+  summary["case"]["lattice"]["spacing"] = 1e-4;
+  summary["case"]["interface"] = {{"patch", 1}};
+  summary["case"]["output"] = {{"events", "all"}, {"traces", "none"}};
+  summary["contacts"] = 7;
+  std::ofstream(box.work / "run" / "summary.json") << summary.dump();
+  const std::vector<std::array<int, 2>> sites{{1, 1}, {14, 1}, {1, 13}, {5, 1},
+                                              {4, 5}, {8, 8},  {10, 10}};
+  const std::vector<double> spacings{0, 2, 3, 4, 5, std::hypot(7.0, 7.0), std::hypot(6.0, 6.0)};
+  std::ofstream contacts(box.work / "run" / "contacts.csv");
+  contacts << "id,ix,iy,v_star\n";
+  for (std::size_t i = 0; i < sites.size(); ++i)
+    contacts << i << "," << sites[i][0] << "," << sites[i][1] << ",0.001\n";
+  contacts.close();
+  std::ofstream table(box.work / "run" / "slips.csv");
+  table << std::setprecision(15)
+        << "t_end,contact,t_start,duration,slip,peak_speed,load_start,load_end,load_drop,"
+           "F_f_start,F_f_end,F_f_drop\n";
+  table << 0.01502 << ",0," << 0.0149 << ",1.2e-4,0,0,0,0,0,0,0,0\n";
+  for (std::size_t i = 1; i + 1 < sites.size(); ++i) {  // the last contact does not slip
+    const double onset = 0.0149 + 10e-6 + spacings[i] * 1e-4 / 50.0;
+    table << 0.01501 << "," << i << "," << onset << "," << 0.01501 - onset << ",0,0,0,0,0,0,0,0\n";
+  }
+  table.close();
+
+  const auto r = python(box, "block_slip_map.py", "run");
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  check_png(box.work / "run" / "block_slip_map.png");
+  CHECK_THAT(r.out, Catch::Contains("6 of 7 contacts slipped, the first contact 0 at (1, 1)"));
+  CHECK_THAT(r.out, Catch::Contains("14.0 µs ahead of the next"));  // (14, 1): 10 + 2e-4/50 s
+  std::smatch m;
+  REQUIRE(std::regex_search(r.out, m, std::regex(R"(front speed (\S+) ± (\S+) m/s over 5)")));
+  CHECK(std::stod(m[1].str()) == Approx(50.0).epsilon(1e-6));
+  CHECK(std::stod(m[2].str()) < 1e-6);
+
+  // One block slip wholly in the window: --slip 1 is past it.
+  const auto beyond = python(box, "block_slip_map.py", "run --slip 1");
+  CHECK(beyond.code == 2);
+  CHECK(test::lines(beyond.out) == 1);
+  CHECK_THAT(beyond.out, Catch::Contains("error: run: no block slip 1: the run has 1 block slip "
+                                         "wholly in its window [0.01, 0.04] s"));
+  // A movie needs every contact's trace.
+  const auto film = python(box, "block_slip_map.py", "run --movie");
+  CHECK(film.code == 2);
+  CHECK(test::lines(film.out) == 1);
+  CHECK_THAT(film.out, Catch::Contains("run: --movie needs every contact's speed") &&
+                           Catch::Contains("[output] traces = \"all\""));
+  CHECK_FALSE(fs::exists(box.work / "run" / "block_slip_0.gif"));
+  // A run without slips.csv: refused, naming the key, nothing drawn.
+  fs::remove(box.work / "run" / "block_slip_map.png");
+  fs::remove(box.work / "run" / "block_slip_map.pdf");
+  fs::remove(box.work / "run" / "slips.csv");
+  const auto gone = python(box, "block_slip_map.py", "run");
+  CHECK(gone.code == 2);
+  CHECK(test::lines(gone.out) == 1);
+  CHECK_THAT(gone.out, Catch::Contains("error: run: no slips (run/slips.csv not found)") &&
+                           Catch::Contains("[output] events = \"all\""));
+  CHECK_FALSE(fs::exists(box.work / "run" / "block_slip_map.png"));
+  // And one whose events were not located: it says so.
+  write_census_run(box.work / "quiet", "none");
+  const auto none = python(box, "block_slip_map.py", "quiet");
+  CHECK(none.code == 2);
+  CHECK(test::lines(none.out) == 1);
+  CHECK_THAT(none.out, Catch::Contains("error: quiet: no slips of every contact ([output] events "
+                                       "= \"none\"); the map needs them"));
+  CHECK_FALSE(fs::exists(box.work / "quiet" / "block_slip_map.png"));
 }
