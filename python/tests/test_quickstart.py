@@ -26,3 +26,13 @@ def test_the_quickstart_notebook_runs_and_shows_its_run_tables_and_plot(tmp_path
     assert "μ = " in shown(at["stickslip.run("]) and "method" in shown(at["stickslip.run("])
     assert "<xarray.Dataset>" in shown(at["to_xarray"])
     assert any("image/png" in o.get("data", {}) for o in notebook.cells[at["plt.subplots"]].outputs)
+
+
+def test_the_notebook_server_the_docs_name_is_installed():
+    """USAGE.md opens the notebook with `jupyter notebook`: the set-up installs it."""
+    import shutil
+    import subprocess
+    jupyter = shutil.which("jupyter")
+    assert jupyter, "no jupyter command: scripts/install-deps installs jupyter-notebook"
+    done = subprocess.run([jupyter, "notebook", "--version"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
