@@ -61,7 +61,8 @@ def curves(rows, label_key):
     the window. `untrusted`: how many of the point's runs had a window with neither whole
     cycles nor steady sliding (the loading from rest): their μ is no friction coefficient.
     `runs_error`: the error of the mean from the runs' own error bars (sweep_summary.csv's
-    mu_runs_error, of μ over the window), None where a run has none or the table predates it."""
+    mu_runs_error, or mu_whole_cycles_runs_error with whole cycles), None where a run has none
+    or the table predates it."""
     out = {}
     for r in rows:
         if not r["mu_mean"]:
@@ -73,7 +74,7 @@ def curves(rows, label_key):
         out.setdefault(key, []).append(
             (float(r["theta_mean"]), float(r[prefix + "_mean"]), sd, int(r["count"]), cycles,
              int(r.get("untrusted") or 0),
-             float(r["mu_runs_error"]) if r.get("mu_runs_error") else None))
+             float(r[prefix + "_runs_error"]) if r.get(prefix + "_runs_error") else None))
     for v in out.values():
         v.sort()
     return out

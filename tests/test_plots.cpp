@@ -94,7 +94,8 @@ TEST_CASE("fig7.py, fig9.py and epsilon.py plot the sweep's mean mu per coverage
     std::getline(in, line);
     REQUIRE(line ==
             "drive.velocity,interface.coverage,theta_mean,mu_mean,mu_std,mu_sem,count,"
-            "mu_whole_cycles_mean,mu_whole_cycles_std,mu_whole_cycles_sem,untrusted,mu_runs_error");
+            "mu_whole_cycles_mean,mu_whole_cycles_std,mu_whole_cycles_sem,untrusted,mu_runs_error,"
+            "mu_whole_cycles_runs_error");
     while (std::getline(in, line)) {
       std::vector<std::string> f;
       std::istringstream cells(line);

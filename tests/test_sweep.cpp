@@ -110,6 +110,11 @@ TEST_CASE("a sweep runs every combination once, and started again only what is u
     CHECK(std::stod(means[g + 1][column(means, "mu_std")]) ==
           Approx(std::abs(a - b) / std::sqrt(2.0)).epsilon(1e-6));  // μ printed to 10 digits
     CHECK(means[g + 1][column(means, "count")] == "2");
+    // The points' own error bars, beside the seeds' spread: √(e₁² + e₂²) / 2.
+    const auto error = column(rows, "mu_error");
+    const double ea = std::stod(rows[2 * g + 1][error]), eb = std::stod(rows[2 * g + 2][error]);
+    CHECK(std::stod(means[g + 1][column(means, "mu_runs_error")]) ==
+          Approx(std::hypot(ea, eb) / 2).epsilon(1e-6));
   }
 
   // --report writes the tables from what is finished and runs nothing.

@@ -303,8 +303,8 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
   for (std::size_t i = 0; i < sweep.axes.size(); ++i)
     if (sweep.axes[i].key == sweep.average_over) avg_axis = i;
   struct Group {
-    std::vector<double> mu, mu_cycles, theta;  // of the finished points
-    std::vector<double> mu_error;              // their own errors, where they have one
+    std::vector<double> mu, mu_cycles, theta;       // of the finished points
+    std::vector<double> mu_error, mu_cycles_error;  // their own errors (NaN where none)
     long untrusted = 0;  // finished points whose μ is no friction coefficient (loading, ...)
   };
   std::map<std::vector<std::size_t>, Group> groups;  // axis value indices -> points
@@ -324,7 +324,10 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
       g.theta.push_back(summaries[i]->theta);
       g.mu_error.push_back(summaries[i]->mu_error);
       if (const auto& r = summaries[i]->regime; r && !r->mu_trusted()) ++g.untrusted;
-      if (const auto& cycles = summaries[i]->mu_whole_cycles) g.mu_cycles.push_back(cycles->mu);
+      if (const auto& cycles = summaries[i]->mu_whole_cycles) {
+        g.mu_cycles.push_back(cycles->mu);
+        g.mu_cycles_error.push_back(cycles->error);
+      }
     }
   }
   auto num = [](double x) { return std::isfinite(x) ? number(x) : std::string(); };
@@ -344,10 +347,11 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
   summary << (first ? "" : ",")
           << "theta_mean,mu_mean,mu_std,mu_sem,count,"
              "mu_whole_cycles_mean,mu_whole_cycles_std,mu_whole_cycles_sem,untrusted,"
-             "mu_runs_error\n";
+             "mu_runs_error,mu_whole_cycles_runs_error\n";
   // mu_sem is the seeds' spread over √count; mu_runs_error is what the
   // points' own error bars give mu_mean (√Σ e² / count), only when every
-  // finished point has one.
+  // finished point has one; mu_whole_cycles_runs_error the same of μ over
+  // whole cycles.
   auto runs_error = [&](const std::vector<double>& errors) {
     double sum = 0;
     for (double e : errors) {
@@ -368,7 +372,8 @@ std::size_t write_sweep_tables(const Sweep& sweep, const std::vector<SweepPoint>
             << ','
             // Only when every finished point has it: never a mean over fewer points than count.
             << (g.mu_cycles.size() == g.mu.size() ? statistics(g.mu_cycles) : ",,") << ','
-            << g.untrusted << ',' << runs_error(g.mu_error) << '\n';
+            << g.untrusted << ',' << runs_error(g.mu_error) << ','
+            << (g.mu_cycles.size() == g.mu.size() ? runs_error(g.mu_cycles_error) : "") << '\n';
   }
   write_atomically(out_dir / kSweepSummaryFile, [&](std::ostream& out) { out << summary.str(); });
   return finished;
