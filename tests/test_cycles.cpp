@@ -330,15 +330,25 @@ TEST_CASE("a verdict for every window, with the fix that applies", "[analysis][c
   CHECK_FALSE(c.regime.mu_trusted());
 }
 
-TEST_CASE("a run from rest: a window on its loading is flagged, a later one of slips is not",
-          "[slow][analysis][cycles]") {
-  // 18 random contacts on 6x6x4 at v = 1e-3: the block loads for ~4 ms before
-  // the first slip (F_f rising 67 % across [1, 2] ms), then stick-slips.
-  test::TempDir dir("stickslip_test_regime");
+namespace {
+
+// 18 random contacts on 6x6x4 at v = 1e-3, from rest: the block loads for
+// ~4 ms before its first block slip (F_f rising 67 % across [1, 2] ms), then
+// stick-slips, a block slip every ~2.7 ms.
+Case small_block_from_rest() {
   Case c;
   c.lattice = {6, 6, 4, 1e-4};
   c.interface.coverage = 0.5;
   c.output.events = ContactSelection::none;
+  return c;
+}
+
+}  // namespace
+
+TEST_CASE("a run from rest: a window on its loading is flagged, a later one of slips is not",
+          "[slow][analysis][cycles]") {
+  test::TempDir dir("stickslip_test_regime");
+  Case c = small_block_from_rest();
   c.run.t_end = 2e-3;
   c.run.average_from = 1e-3;
   const Summary early = run_case(c, {dir.path / "early", false, true});
@@ -391,10 +401,7 @@ TEST_CASE(
     "the same",
     "[slow][analysis][cycles][restart]") {
   test::TempDir dir("stickslip_test_auto_restart");
-  Case c;
-  c.lattice = {6, 6, 4, 1e-4};
-  c.interface.coverage = 0.5;
-  c.output.events = ContactSelection::none;
+  Case c = small_block_from_rest();
   c.run.t_end = 10e-3;
   c.run.average_auto = true;
   c.run.average_from = 0.0;

@@ -267,13 +267,13 @@ TEST_CASE(
   Sandbox box("stickslip_plots_");
   // Each script with as many directories as it needs, all missing.
   const std::vector<std::pair<std::string, std::string>> scripts{
-      {"block_slip_map.py", "nowhere"},  {"block_slips.py", "nowhere"},
-      {"epsilon.py", "nowhere"},         {"fig7.py", "nowhere"},
-      {"fig8.py", "nowhere nowhere2"},   {"fig9.py", "nowhere"},
-      {"fig10.py", "nowhere nowhere2"},  {"finite_size.py", "nowhere"},
-      {"pair_separation.py", "nowhere"}, {"patch_size.py", "nowhere"},
-      {"spectra.py", "nowhere"},         {"traces.py", "nowhere"},
-      {"work_precision.py", "nowhere"}};
+      {"block_slip_map.py", "nowhere"}, {"block_slips.py", "nowhere"},
+      {"cost_scaling.py", "nowhere"},   {"epsilon.py", "nowhere"},
+      {"fig7.py", "nowhere"},           {"fig8.py", "nowhere nowhere2"},
+      {"fig9.py", "nowhere"},           {"fig10.py", "nowhere nowhere2"},
+      {"finite_size.py", "nowhere"},    {"pair_separation.py", "nowhere"},
+      {"patch_size.py", "nowhere"},     {"spectra.py", "nowhere"},
+      {"traces.py", "nowhere"},         {"work_precision.py", "nowhere"}};
   // No script in plots/ is left out (the modules' names begin with '_', and run_tables.py).
   std::size_t listed = 0;
   for (const auto& entry : fs::directory_iterator(fs::path(STICKSLIP_SOURCE_DIR) / "plots")) {
@@ -939,4 +939,31 @@ TEST_CASE("block_slip_map.py: the front speed on a torus, and what it refuses", 
   CHECK_THAT(none.out, Catch::Contains("error: quiet: no slips of every contact ([output] events "
                                        "= \"none\"); the map needs them"));
   CHECK_FALSE(fs::exists(box.work / "quiet" / "block_slip_map.png"));
+}
+
+TEST_CASE("cost_scaling.py fits the exponent of wall per simulated ms against the nodes",
+          "[plots]") {
+  Sandbox box("stickslip_plots_");
+  // Wall per ms exactly 1e-3 · nodes^1.5 at θ = 0.04, a range whose geometric
+  // mean is 2e-3 · nodes at θ = 0.5: the fits must give 1.50 and 1.00.
+  std::string table =
+      "nx,ny,nz,theta,contacts,method,wall_per_ms_lo,wall_per_ms_hi,memory_MB,what\n";
+  for (int n : {10, 20, 40}) {
+    const double nodes = n * n * 10.0;
+    char row[256];
+    std::snprintf(row, sizeof row, "%d,%d,10,0.04,9,dirk,%.17g,%.17g,%.17g,whole\n", n, n,
+                  1e-3 * std::pow(nodes, 1.5), 1e-3 * std::pow(nodes, 1.5), 2e-3 * nodes);
+    table += row;
+    std::snprintf(row, sizeof row, "%d,%d,10,0.5,9,multirate,%.17g,%.17g,,whole\n", n, n,
+                  1e-3 * nodes, 4e-3 * nodes);
+    table += row;
+  }
+  fs::create_directories(box.work / "cost");
+  box.write("cost/cost.csv", table);
+  const auto r = python(box, "cost_scaling.py", "cost");
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  CHECK_THAT(r.out, Catch::Contains("theta=0.04 wall_per_ms ~ nodes^1.50 memory 1.95 KiB/node"));
+  CHECK_THAT(r.out, Catch::Contains("theta=0.5 wall_per_ms ~ nodes^1.00\n"));
+  check_png(box.work / "cost" / "cost_scaling.png");
 }
