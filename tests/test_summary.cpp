@@ -191,6 +191,20 @@ TEST_CASE("a summary with a field missing or of the wrong type names it", "[summ
   CHECK(message(j) == "block_slips: no \"drop\"");
 }
 
+TEST_CASE("an undersampled window's fix: a finer interval, or a longer window", "[summary]") {
+  Summary s = full_summary();
+  s.mu_whole_cycles.reset();
+  s.regime = WindowRegime{Regime::undersampled, 0.0, 0.0};
+  s.window_samples = 3;
+  s.case_json = {{"output", {{"interval", 1e-3}}}};
+  // [1, 3] ms at 1e-3 s: fewer than ten intervals fit, a finer interval alone would do.
+  CHECK_THAT(regime_fix(s), Catch::StartsWith("a longer window (run.t_end) or a finer "
+                                              "output.interval: the window is shorter than 10"));
+  s.case_json = {{"output", {{"interval", 1e-5}}}};
+  CHECK_THAT(regime_fix(s),
+             Catch::StartsWith("a finer output.interval: the window holds 3 samples of F_f"));
+}
+
 TEST_CASE("read_summary: none, cut short, not a summary, and a written one", "[summary]") {
   const test::TempDir tmp("stickslip_test_summary");
   const fs::path& dir = tmp.path;

@@ -247,6 +247,17 @@ std::string regime_fix(const Summary& s) {
     case Regime::not_driven:
       return "this drive cannot slide: drive.velocity is 0; set it > 0";
     case Regime::undersampled:
+      if (const auto* output = present(s.case_json, "output");
+          output && output->contains("interval") && !s.mu_whole_cycles) {
+        const double interval = (*output)["interval"].get<double>();
+        if (s.t_end - s.average_from < static_cast<double>(kMinSamples) * interval) {
+          std::snprintf(text, sizeof text,
+                        "a longer window (run.t_end) or a finer output.interval: the window is "
+                        "shorter than %ld output intervals of %g s",
+                        kMinSamples, interval);
+          return text;
+        }
+      }
       std::snprintf(text, sizeof text,
                     "a finer output.interval: the window holds %ld sample%s of F_f%s",
                     s.window_samples, s.window_samples == 1 ? "" : "s",
