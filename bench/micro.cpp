@@ -16,6 +16,7 @@
 //   rhs_threads/N/T, implicit_stage_threads/N/P/T   rhs and implicit_stage on T
 //                          threads ([solver] threads; wall time): the speedup of
 //                          one run's kernels, 120×120×10 included
+//   window_analysis/N      the end-of-run analysis of F_f over N block cycles
 //   dirk_stage/N/P         a stage in situ: dirk (rtol 1e-6) advanced 20 µs from the
 //                          fixture's state; `rhs_per_stage` is the wall time per
 //                          implicit stage in units of one rhs, timed in the same run
@@ -31,6 +32,7 @@
 #include <memory>
 
 #include "stickslip/case/placement.hpp"
+#include "stickslip/core/cycles.hpp"
 #include "stickslip/integrate/lattice_solver.hpp"
 #include "stickslip/integrate/lattice_stage_solver.hpp"
 #include "stickslip/integrate/make_integrator.hpp"
@@ -258,6 +260,28 @@ void BM_dirk_stage(benchmark::State& state) {
   state.counters["rhs_per_stage"] = seconds / static_cast<double>(stages) / rhs_seconds;
   state.counters["contacts"] = static_cast<double>(f.system->contact_set().contacts().size());
 }
+
+// The end-of-run analysis of F_f (core/cycles.hpp) on a sawtooth of N block
+// cycles sampled 2 000 times each: finding the window's start ("auto": MSER
+// over the cycles) and judging it. Its cost must stay a pass or two over the
+// samples however many cycles there are (it once grew as cycles² × samples:
+// 53 s at 500 cycles).
+static void BM_window_analysis(benchmark::State& state) {
+  const auto cycles = static_cast<long>(state.range(0));
+  std::vector<double> t, f;
+  for (long k = 0; k < cycles * 2000; ++k) {
+    t.push_back(static_cast<double>(k) * 1e-7);
+    f.push_back(2.0 + 4.0 * static_cast<double>(k % 2000) / 2000.0 +
+                1e-3 * static_cast<double>(k % 7));
+  }
+  for (auto _ : state) {
+    const double from = stickslip::settled_from(t, f);
+    benchmark::DoNotOptimize(stickslip::analyse_window(t, f, from, true));
+  }
+  state.SetItemsProcessed(state.iterations() * static_cast<long>(t.size()));
+}
+
+BENCHMARK(BM_window_analysis)->Arg(50)->Arg(500)->Unit(benchmark::kMillisecond);
 
 BENCHMARK(BM_rhs)->Arg(15)->Arg(30)->Arg(60);
 BENCHMARK(BM_lattice_factorize)->Arg(15)->Arg(30)->Arg(60);

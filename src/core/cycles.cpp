@@ -17,18 +17,32 @@ void check_sizes(std::span<const double> t, std::span<const double> f, const cha
     throw std::invalid_argument(std::string(who) + ": times and values differ in number");
 }
 
-// ∫ f dt over [a, b] (a ≤ b within the samples), f linear between samples.
-double integral(std::span<const double> t, std::span<const double> f, double a, double b) {
-  auto at = [&](std::size_t i, double s) {  // f at s in [t_i, t_i+1]
-    return f[i] + (f[i + 1] - f[i]) * (s - t[i]) / (t[i + 1] - t[i]);
-  };
-  double sum = 0.0;
-  for (std::size_t i = 0; i + 1 < t.size(); ++i) {
-    const double lo = std::max(a, t[i]), hi = std::min(b, t[i + 1]);
-    if (hi > lo) sum += 0.5 * (at(i, lo) + at(i, hi)) * (hi - lo);
+// ∫ f dt from the first sample, f linear between samples (the trapezoidal
+// rule), summed once: any ∫ over [a, b] is then a difference, found by
+// bisection, so averaging over many pieces (batch means, MSER's cuts) costs
+// no pass over the samples each.
+class Antiderivative {
+ public:
+  Antiderivative(std::span<const double> t, std::span<const double> f)
+      : t_(t), f_(f), sum_(t.size(), 0.0) {
+    for (std::size_t i = 1; i < t.size(); ++i)
+      sum_[i] = sum_[i - 1] + 0.5 * (f[i - 1] + f[i]) * (t[i] - t[i - 1]);
   }
-  return sum;
-}
+  // ∫ f dt over [a, b], a ≤ b within the samples.
+  double over(double a, double b) const { return at(b) - at(a); }
+
+ private:
+  double at(double s) const {  // ∫ f dt over [t_0, s]
+    if (t_.size() < 2 || s <= t_.front()) return 0.0;
+    if (s >= t_.back()) return sum_.back();
+    const auto i =
+        static_cast<std::size_t>(std::upper_bound(t_.begin(), t_.end(), s) - t_.begin()) - 1;
+    const double fs = f_[i] + (f_[i + 1] - f_[i]) * (s - t_[i]) / (t_[i + 1] - t_[i]);
+    return sum_[i] + 0.5 * (f_[i] + fs) * (s - t_[i]);
+  }
+  std::span<const double> t_, f_;
+  std::vector<double> sum_;
+};
 
 // The mean of f over [b_0, b_m] and its standard error from the pieces
 // [b_k, b_k+1] as batches: each piece's mean weighted by its length (the
@@ -37,14 +51,13 @@ double integral(std::span<const double> t, std::span<const double> f, double a, 
 struct BatchMean {
   double mean = kNaN, error = kNaN;
 };
-BatchMean batch_mean(std::span<const double> t, std::span<const double> f,
-                     const std::vector<double>& bounds) {
+BatchMean batch_mean(const Antiderivative& integral, const std::vector<double>& bounds) {
   BatchMean r;
   if (bounds.size() < 2) return r;
   std::vector<double> length, area;
   for (std::size_t k = 0; k + 1 < bounds.size(); ++k) {
     length.push_back(bounds[k + 1] - bounds[k]);
-    area.push_back(integral(t, f, bounds[k], bounds[k + 1]));
+    area.push_back(integral.over(bounds[k], bounds[k + 1]));
   }
   double total = 0.0, total_area = 0.0;
   for (std::size_t k = 0; k < length.size(); ++k) total += length[k], total_area += area[k];
@@ -195,9 +208,10 @@ double settled_from(std::span<const double> t, std::span<const double> f) {
     std::vector<double> onsets;
     for (const auto& s : slips) onsets.push_back(s.onset);
     const std::size_t cycles = onsets.size() - 1;
+    const Antiderivative integral(t, f);
     const std::size_t d = mser(std::min(cycles / 2, cycles - 2), [&](std::size_t cut) {
       const std::vector<double> rest(onsets.begin() + static_cast<long>(cut), onsets.end());
-      return batch_mean(t, f, rest).error;
+      return batch_mean(integral, rest).error;
     });
     return onsets[d];
   }
@@ -251,7 +265,8 @@ FrictionWindow analyse_window(std::span<const double> t_all, std::span<const dou
 
   FrictionWindow w;
   w.samples = static_cast<long>(t.size());
-  w.mean = t.size() >= 2   ? integral(t, f, t.front(), t.back()) / (t.back() - t.front())
+  const Antiderivative integral(t, f);
+  w.mean = t.size() >= 2   ? integral.over(t.front(), t.back()) / (t.back() - t.front())
            : t.size() == 1 ? f.front()
                            : kNaN;
   w.error = kNaN;
@@ -272,7 +287,7 @@ FrictionWindow analyse_window(std::span<const double> t_all, std::span<const dou
   c.from = t.empty() ? t_from : t.front();
   c.to = t.empty() ? t_from : t.back();
   if (onsets.size() >= 2) {
-    const BatchMean whole = batch_mean(t, f, onsets);
+    const BatchMean whole = batch_mean(integral, onsets);
     c.mean = whole.mean;
     c.error = whole.error;
     c.from = onsets.front();
@@ -287,7 +302,7 @@ FrictionWindow analyse_window(std::span<const double> t_all, std::span<const dou
     for (double o : onsets)
       if (o > bounds.back() && o < t.back()) bounds.push_back(o);
     bounds.push_back(t.back());
-    w.error = batch_mean(t, f, bounds).error;
+    w.error = batch_mean(integral, bounds).error;
     w.error_from = "block cycles";
   } else if (slips.empty() && w.samples >= kMinSamples) {
     const double sd = w.spread * w.mean;
@@ -319,7 +334,7 @@ FrictionWindow analyse_window(std::span<const double> t_all, std::span<const dou
     const double settled = settled_from(t_all, f_all);
     bool biased = false;
     if (t.front() < settled && !std::isnan(w.error)) {
-      const double later = integral(t, f, settled, t.back()) / (t.back() - settled);
+      const double later = integral.over(settled, t.back()) / (t.back() - settled);
       biased = std::abs(w.mean - later) > 2.0 * w.error;
     }
     if (biased) {
