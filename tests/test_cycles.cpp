@@ -374,7 +374,11 @@ TEST_CASE("a run from rest: a window on its loading is flagged, a later one of s
   // table's impulse column at that row, over F_N and the window.
   c.run.average_auto = true;
   c.run.average_from = 0.0;
+  c.output.events = ContactSelection::all;
   const Summary automatic = run_case(c, {dir.path / "auto", false, true});
+  // The contacts' slip statistics cover the window found, as μ does.
+  REQUIRE(automatic.events);
+  CHECK(automatic.events->window_from == automatic.average_from);
   REQUIRE(automatic.block_slips.size() >= 3);
   CHECK(automatic.average_auto);
   CHECK(automatic.average_from >= automatic.block_slips.front().onset);

@@ -195,7 +195,6 @@ class EventsRecorder final : public Recorder {
   static constexpr const char* kTable = run_table::kEvents;
   explicit EventsRecorder(const RecorderSetup& s)
       : system_(s.system),
-        average_from_(s.c.run.average_from),
         watched_(s.watched),
         table_(open_table(s, {kTable,
                               {time_column(15),
@@ -252,7 +251,9 @@ class EventsRecorder final : public Recorder {
   }
   void flush() override { table_->flush(); }
   void finish(double t_end, std::span<const double>, Summary& summary) override {
-    const double t_avg = average_from_;
+    // The window μ's: with run.average_from = "auto" the friction recorder,
+    // finished before this one (kRecorders' order), has found its start.
+    const double t_avg = summary.average_from;
     EventSummary events{static_cast<long>(events_.size()), t_avg, t_end, {}};
     for (int id : watched_)
       events.per_contact.push_back(contact_statistics(
@@ -269,7 +270,6 @@ class EventsRecorder final : public Recorder {
 
  private:
   const System& system_;
-  double average_from_;
   std::vector<int> watched_;
   std::unique_ptr<Table> table_;
   std::vector<Event> events_;
