@@ -272,10 +272,10 @@ FrictionWindow analyse_window(std::span<const double> t_all, std::span<const dou
   w.error = kNaN;
   w.spread = t.size() >= 2 ? relative_spread(t, f, t_from) : kNaN;
   fit_line(t, f, w.regime);
-  w.regime.transient_ends = kNaN;
 
   // Block slips of the whole trace; those whose onset is in the window bound its cycles.
-  const auto slips = find_block_slips(t_all, f_all);
+  w.block_slips = find_block_slips(t_all, f_all);
+  const auto& slips = w.block_slips;
   std::vector<double> onsets;
   for (const auto& s : slips)
     if (!t.empty() && s.onset >= t.front() && s.onset <= t.back()) onsets.push_back(s.onset);

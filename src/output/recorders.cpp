@@ -116,7 +116,7 @@ class FrictionRecorder final : public Recorder {
       summary.mu_whole_cycles = WholeCycleMu{
           c.mean / normal_force_, c.from, c.to, c.block_slips, c.period, c.error / normal_force_};
     summary.regime = w.regime;
-    summary.block_slips = find_block_slips(t_, friction_);
+    summary.block_slips = w.block_slips;
   }
 
  private:

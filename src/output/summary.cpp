@@ -277,7 +277,7 @@ std::string regime_fix(const Summary& s) {
       return "a longer run.t_end: F_f is still on its loading ramp at the end of the run, no "
              "block slip yet";
     case Regime::unsettled:
-      if (s.mu_whole_cycles)
+      if (!s.block_slips.empty())  // the run has block slips, the window too few of them
         return "a longer window (run.t_end, or an earlier run.average_from past the loading "
                "transient): it holds fewer than two block slips";
       return "a longer window (run.t_end, or an earlier run.average_from past the loading "

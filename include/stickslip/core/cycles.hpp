@@ -97,6 +97,7 @@ struct FrictionWindow {
   double spread = 0.0;          // sd over mean of the samples; NaN with fewer than two
   CycleMean cycles;
   WindowRegime regime;
+  std::vector<BlockSlip> block_slips;  // of the whole trace, which the window's cycles are cut from
 };
 
 // The samples with t ≥ t_from form the window; the block slips and the
